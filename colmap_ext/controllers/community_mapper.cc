@@ -1,0 +1,593 @@
+#include "colmap_ext/controllers/community_mapper.h"
+
+#include "colmap_ext/scene/community_io.h"
+#include "colmap_ext/util/atomic_output.h"
+#include "colmap_ext/util/log_tag.h"
+
+#include "colmap/scene/database.h"
+#include "colmap/scene/database_cache.h"
+#include "colmap/util/misc.h"
+#include "colmap/util/threading.h"
+#include "colmap/util/timer.h"
+
+#include <algorithm>
+#include <map>
+#include <mutex>
+
+namespace colmap {
+namespace {
+
+using Models = std::vector<std::shared_ptr<Reconstruction>>;
+
+// The images of every community: its own (by id) and those its
+// reconstruction uses, its own plus the overlap with its neighbours (by
+// name).
+struct CommunityImages {
+  std::vector<std::unordered_set<image_t>> own_image_ids;
+  std::vector<std::unordered_set<std::string>> image_names;
+};
+
+CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
+                                       const WeightedGraph& graph,
+                                       const CommunityPartition& partition,
+                                       const int image_overlap) {
+  CommunityImages groups;
+  groups.own_image_ids.resize(partition.NumCommunities());
+  groups.image_names.resize(partition.NumCommunities());
+  for (size_t vertex = 0; vertex < view_graph.NumVertices(); ++vertex) {
+    groups.own_image_ids[partition.membership[vertex]].insert(
+        view_graph.ImageIds()[vertex]);
+  }
+  const std::vector<std::vector<int>> extended =
+      ExtendCommunities(graph, partition, image_overlap);
+  for (size_t community = 0; community < extended.size(); ++community) {
+    for (const int vertex : extended[community]) {
+      groups.image_names[community].insert(view_graph.ImageNames()[vertex]);
+    }
+  }
+  return groups;
+}
+
+// Reconstructs every community with COLMAP's incremental mapper, several at
+// once, largest first. A community yielding several models keeps the
+// largest; one yielding none gets nullptr. Models are written to
+// output_path/communities/K as they finish (if output_path is set).
+Models ReconstructCommunities(
+    const CommunityMapperController::Options& options,
+    const CommunityImages& communities,
+    CommunityMapperController::Summary* summary) {
+  const int num_communities =
+      static_cast<int>(communities.own_image_ids.size());
+  const int num_threads = GetEffectiveNumThreads(-1);
+  const int num_workers =
+      options.num_workers > 0
+          ? options.num_workers
+          : std::max(1, std::min(num_communities, num_threads));
+  const int num_threads_per_worker = std::max(1, num_threads / num_workers);
+  LOG(INFO) << StringPrintf(
+      "Reconstructing %d communities with %d workers, %d threads each",
+      num_communities,
+      num_workers,
+      num_threads_per_worker);
+
+  const std::string communities_path =
+      options.output_path.empty()
+          ? ""
+          : JoinPaths(options.output_path, "communities");
+  if (!communities_path.empty()) {
+    CreateDirIfNotExists(communities_path);
+  }
+
+  Models models(num_communities);
+  summary->community_num_registered.assign(num_communities, 0);
+  summary->community_num_models.assign(num_communities, 0);
+  std::mutex summary_mutex;
+
+  auto reconstruct = [&](const int community) {
+    ScopedLogTag log_tag(StringPrintf("community %d", community));
+    try {
+      auto incremental_options = std::make_shared<IncrementalMapperOptions>(
+          options.incremental_options);
+      incremental_options->image_names = communities.image_names[community];
+      if (incremental_options->num_threads < 0) {
+        incremental_options->num_threads = num_threads_per_worker;
+      }
+      LOG(INFO) << StringPrintf(
+          "Reconstructing community %d (%d images, %d shared with "
+          "neighbours)",
+          community,
+          static_cast<int>(communities.own_image_ids[community].size()),
+          static_cast<int>(communities.image_names[community].size() -
+                           communities.own_image_ids[community].size()));
+      auto reconstruction_manager = std::make_shared<ReconstructionManager>();
+      IncrementalMapperController mapper(std::move(incremental_options),
+                                         options.image_path,
+                                         options.database_path,
+                                         reconstruction_manager);
+      mapper.Run();
+
+      std::shared_ptr<Reconstruction> largest;
+      for (size_t i = 0; i < reconstruction_manager->Size(); ++i) {
+        const auto& reconstruction = reconstruction_manager->Get(i);
+        if (!largest ||
+            reconstruction->NumRegImages() > largest->NumRegImages()) {
+          largest = reconstruction;
+        }
+      }
+      const int num_images =
+          static_cast<int>(communities.image_names[community].size());
+      if (!largest || largest->NumRegImages() == 0) {
+        LOG(WARNING) << StringPrintf(
+            "Community %d (%d images) could not be reconstructed; it takes no "
+            "part in the merge.",
+            community,
+            num_images);
+        return;
+      }
+      if (reconstruction_manager->Size() > 1) {
+        LOG(WARNING) << StringPrintf(
+            "Community %d broke into %d models; the largest (%d of %d "
+            "images) takes part in the merge.",
+            community,
+            static_cast<int>(reconstruction_manager->Size()),
+            static_cast<int>(largest->NumRegImages()),
+            num_images);
+      }
+      if (!communities_path.empty()) {
+        WriteReconstructionAtomically(
+            *largest, JoinPaths(communities_path, std::to_string(community)));
+      }
+      LOG(INFO) << StringPrintf(
+          "Community %d done: %d of %d images registered, %d points",
+          community,
+          static_cast<int>(largest->NumRegImages()),
+          num_images,
+          static_cast<int>(largest->NumPoints3D()));
+
+      std::lock_guard<std::mutex> lock(summary_mutex);
+      models[community] = largest;
+      summary->community_num_registered[community] =
+          static_cast<int>(largest->NumRegImages());
+      summary->community_num_models[community] =
+          static_cast<int>(reconstruction_manager->Size());
+    } catch (const std::exception& error) {
+      LOG(ERROR) << StringPrintf(
+          "Community %d failed: %s; it takes no part in the merge.",
+          community,
+          error.what());
+    }
+  };
+
+  // Communities are numbered largest first, the order that keeps the
+  // workers busiest.
+  ThreadPool thread_pool(num_workers);
+  for (int community = 0; community < num_communities; ++community) {
+    thread_pool.AddTask(reconstruct, community);
+  }
+  thread_pool.Wait();
+  return models;
+}
+
+// The pairwise similarity of every pair of reconstructed communities joined
+// by view-graph edges, from the verified matches of those edges.
+std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
+    const CommunityMapperController::Options& options,
+    const ViewGraph& view_graph,
+    const CommunityPartition& partition,
+    const Models& models,
+    std::vector<std::vector<std::pair<point3D_t, point3D_t>>>*
+        inlier_point3D_ids,
+    CommunityMapperController::Summary* summary) {
+  // Cross edges by community pair, oriented from the smaller community id.
+  std::map<std::pair<int, int>, std::vector<std::pair<image_t, image_t>>>
+      cross_edges;
+  for (const ViewGraph::Edge& edge : view_graph.Edges()) {
+    int community1 = partition.membership[edge.vertex1];
+    int community2 = partition.membership[edge.vertex2];
+    image_t image_id1 = view_graph.ImageIds()[edge.vertex1];
+    image_t image_id2 = view_graph.ImageIds()[edge.vertex2];
+    if (community1 == community2) {
+      continue;
+    }
+    if (community1 > community2) {
+      std::swap(community1, community2);
+      std::swap(image_id1, image_id2);
+    }
+    cross_edges[{community1, community2}].emplace_back(image_id1, image_id2);
+  }
+  summary->num_community_pairs = static_cast<int>(cross_edges.size());
+
+  const Database database(options.database_path);
+  std::vector<RelativeSimilarity> similarities;
+  for (const auto& pair_and_edges : cross_edges) {
+    const int community1 = pair_and_edges.first.first;
+    const int community2 = pair_and_edges.first.second;
+    if (!models[community1] || !models[community2]) {
+      continue;
+    }
+    // Images on the border that both reconstructions registered: each of
+    // their keypoints with a 3D point in both is a correspondence.
+    const Reconstruction& model1 = *models[community1];
+    const Reconstruction& model2 = *models[community2];
+    std::vector<CrossPairMatches> cross_pairs;
+    for (const image_t image_id : model1.RegImageIds()) {
+      if (model2.ExistsImage(image_id) && model2.IsImageRegistered(image_id)) {
+        CrossPairMatches shared;
+        shared.image_id1 = image_id;
+        shared.image_id2 = image_id;
+        for (point2D_t idx = 0; idx < model1.Image(image_id).NumPoints2D();
+             ++idx) {
+          shared.matches.emplace_back(idx, idx);
+        }
+        cross_pairs.push_back(std::move(shared));
+      }
+    }
+    const int num_shared_images = static_cast<int>(cross_pairs.size());
+    for (const auto& image_pair : pair_and_edges.second) {
+      CrossPairMatches cross_pair;
+      cross_pair.image_id1 = image_pair.first;
+      cross_pair.image_id2 = image_pair.second;
+      cross_pair.matches =
+          database.ReadTwoViewGeometry(image_pair.first, image_pair.second)
+              .inlier_matches;
+      cross_pairs.push_back(std::move(cross_pair));
+    }
+    const PointCorrespondences correspondences =
+        FindPointCorrespondences(model1, model2, cross_pairs);
+    const PairwiseSimilarity similarity = EstimatePairwiseSimilarity(
+        correspondences, options.pairwise_similarity);
+    LOG(INFO) << StringPrintf(
+        "Communities %d-%d: %d shared images, %d cross edges, %d point "
+        "correspondences, %d inliers, scale %.4f -> %s",
+        community1,
+        community2,
+        num_shared_images,
+        static_cast<int>(pair_and_edges.second.size()),
+        similarity.num_correspondences,
+        similarity.num_inliers,
+        similarity.second_from_first.scale,
+        similarity.success ? "used" : "too little support, not used");
+    if (!similarity.success) {
+      continue;
+    }
+    RelativeSimilarity relative;
+    relative.community1 = community1;
+    relative.community2 = community2;
+    relative.second_from_first = similarity.second_from_first;
+    relative.points1 = similarity.inlier_points1;
+    relative.points2 = similarity.inlier_points2;
+    relative.weight = similarity.num_inliers;
+    similarities.push_back(std::move(relative));
+    inlier_point3D_ids->push_back(similarity.inlier_point3D_ids);
+  }
+  summary->num_estimated_similarities = static_cast<int>(similarities.size());
+  return similarities;
+}
+
+}  // namespace
+
+int CommunityMapperController::Options::MinNumMatches() const {
+  return min_num_matches > 0 ? min_num_matches
+                             : incremental_options.min_num_matches;
+}
+
+bool CommunityMapperController::Options::Check() const {
+  CHECK_OPTION_GE(modularity_threshold, 0.0);
+  CHECK_OPTION_LT(modularity_threshold, 1.0);
+  CHECK_OPTION_GE(min_community_size, 2);
+  CHECK_OPTION(min_num_matches == -1 || min_num_matches > 0);
+  CHECK_OPTION(edge_weights == "unit" || edge_weights == "num_inliers");
+  CHECK_OPTION_GE(image_overlap, 0);
+  CHECK_OPTION_GE(num_workers, -1);
+  CHECK_OPTION_NE(num_workers, 0);
+  CHECK_OPTION(pairwise_similarity.Check());
+  CHECK_OPTION(similarity_averaging.Check());
+  CHECK_OPTION(incremental_options.Check());
+  return true;
+}
+
+CommunityMapperController::CommunityMapperController(
+    const Options& options,
+    std::shared_ptr<ReconstructionManager> reconstruction_manager)
+    : options_(options),
+      reconstruction_manager_(std::move(reconstruction_manager)) {
+  THROW_CHECK(options_.Check());
+}
+
+void CommunityMapperController::Run() {
+  Timer run_timer;
+  run_timer.Start();
+  summary_ = Summary();
+  Timer phase_timer;
+  auto end_phase = [&](const std::string& name) {
+    summary_.phase_seconds.emplace_back(name, phase_timer.ElapsedSeconds());
+    LOG(INFO) << StringPrintf("%s: %.3fs", name.c_str(),
+                              phase_timer.ElapsedSeconds());
+  };
+
+  //////////////////////////////////////////////////////////////////////////////
+  // 1. View graph and communities
+  //////////////////////////////////////////////////////////////////////////////
+
+  PrintHeading1("1. Partitioning the view graph into communities");
+  phase_timer.Start();
+
+  const ViewGraphEdgeWeight edge_weight =
+      ViewGraphEdgeWeightFromString(options_.edge_weights);
+  const ViewGraph view_graph = ViewGraph::Read(
+      Database(options_.database_path), options_.MinNumMatches());
+  const WeightedGraph graph = view_graph.ToWeightedGraph(edge_weight);
+  const std::vector<std::vector<int>> components = graph.ConnectedComponents();
+  summary_.num_view_graph_images = static_cast<int>(view_graph.NumVertices());
+  summary_.num_view_graph_edges = static_cast<int>(view_graph.NumEdges());
+  summary_.num_view_graph_components = static_cast<int>(components.size());
+  LOG(INFO) << StringPrintf(
+      "View graph: %d images, %d edges (>= %d inlier matches), %d connected "
+      "component(s), the largest with %d images",
+      summary_.num_view_graph_images,
+      summary_.num_view_graph_edges,
+      options_.MinNumMatches(),
+      summary_.num_view_graph_components,
+      components.empty() ? 0 : static_cast<int>(components[0].size()));
+  if (view_graph.NumEdges() == 0) {
+    LOG(ERROR) << "The database has no verified image pairs with at least "
+               << options_.MinNumMatches()
+               << " inlier matches: run a matcher first.";
+    return;
+  }
+
+  CommunityDetectionOptions detection_options;
+  detection_options.modularity_threshold = options_.modularity_threshold;
+  detection_options.min_community_size = options_.min_community_size;
+  const CommunityPartition partition = DetectCommunities(
+      graph, GreedyModularityPartitioner(), detection_options);
+  const CommunityImages communities = GroupImagesByCommunity(
+      view_graph, graph, partition, options_.image_overlap);
+  summary_.max_modularity = partition.MaxModularity();
+  for (size_t vertex = 0; vertex < view_graph.NumVertices(); ++vertex) {
+    summary_.community_of_image.emplace(view_graph.ImageIds()[vertex],
+                                        partition.membership[vertex]);
+  }
+  std::unordered_map<image_t, std::string> image_names;
+  for (size_t vertex = 0; vertex < view_graph.NumVertices(); ++vertex) {
+    image_names.emplace(view_graph.ImageIds()[vertex],
+                        view_graph.ImageNames()[vertex]);
+  }
+  std::string sizes;
+  for (const auto& image_ids : communities.own_image_ids) {
+    summary_.community_sizes.push_back(static_cast<int>(image_ids.size()));
+    sizes += " " + std::to_string(image_ids.size());
+  }
+  LOG(INFO) << StringPrintf(
+      "%d communities (%d before merging those under %d images), sizes:%s",
+      partition.NumCommunities(),
+      partition.num_communities_before_merge,
+      options_.min_community_size,
+      sizes.c_str());
+  if (!options_.output_path.empty()) {
+    const std::string path =
+        JoinPaths(options_.output_path, "communities.txt");
+    WriteTextFileAtomically(CommunitiesToText(view_graph,
+                                              partition,
+                                              options_.modularity_threshold,
+                                              edge_weight),
+                            path);
+    LOG(INFO) << "Wrote " << path;
+  }
+  end_phase("Partition");
+  if (options_.partition_only) {
+    run_timer.PrintMinutes();
+    return;
+  }
+
+  //////////////////////////////////////////////////////////////////////////////
+  // 2. Community reconstruction
+  //////////////////////////////////////////////////////////////////////////////
+
+  PrintHeading1("2. Reconstructing the communities");
+  phase_timer.Restart();
+  Models models = ReconstructCommunities(options_, communities, &summary_);
+  end_phase("Communities");
+  if (CheckIfStopped()) {
+    return;
+  }
+
+  //////////////////////////////////////////////////////////////////////////////
+  // 3. Pairwise similarities and global similarity averaging
+  //////////////////////////////////////////////////////////////////////////////
+
+  PrintHeading1("3. Global similarity averaging");
+  phase_timer.Restart();
+  std::vector<std::vector<std::pair<point3D_t, point3D_t>>> inlier_point3D_ids;
+  const std::vector<RelativeSimilarity> similarities =
+      EstimatePairwiseSimilarities(options_,
+                                   view_graph,
+                                   partition,
+                                   models,
+                                   &inlier_point3D_ids,
+                                   &summary_);
+  const SimilarityAveragingResult averaging = AverageSimilarities(
+      summary_.community_num_registered,
+      similarities,
+      options_.similarity_averaging);
+  for (size_t e = 0; e < similarities.size(); ++e) {
+    const auto& report = averaging.edges[e];
+    summary_.num_kept_similarities += report.kept ? 1 : 0;
+    LOG(INFO) << StringPrintf(
+        "Communities %d-%d: residuals rotation %.3f deg, scale %.4f, "
+        "translation %.4f -> %s",
+        similarities[e].community1,
+        similarities[e].community2,
+        report.rotation_residual_deg,
+        report.log_scale_residual,
+        report.relative_translation_residual,
+        report.kept ? "kept" : "dropped");
+  }
+  end_phase("Similarity averaging");
+
+  //////////////////////////////////////////////////////////////////////////////
+  // 4. Merge and final bundle adjustment
+  //////////////////////////////////////////////////////////////////////////////
+
+  PrintHeading1("4. Merging the communities and bundle adjustment");
+  phase_timer.Restart();
+  std::vector<std::shared_ptr<Reconstruction>> merged_models;
+  for (int part = 0; part < averaging.NumParts(); ++part) {
+    std::vector<int> part_communities;
+    for (size_t c = 0; c < models.size(); ++c) {
+      if (averaging.part_of_community[c] == part && models[c]) {
+        part_communities.push_back(static_cast<int>(c));
+      }
+    }
+    if (part_communities.empty()) {
+      continue;
+    }
+    if (part_communities.size() == 1) {
+      merged_models.push_back(models[part_communities[0]]);
+      continue;
+    }
+
+    LOG(INFO) << "Merging communities" << [&] {
+      std::string ids;
+      for (const int c : part_communities) ids += " " + std::to_string(c);
+      return ids;
+    }();
+    std::vector<Reconstruction*> part_models;
+    std::vector<Sim3d> world_from_community;
+    std::vector<std::unordered_set<image_t>> owned_image_ids;
+    std::unordered_set<std::string> part_image_names;
+    std::map<int, size_t> index_in_part;
+    for (const int c : part_communities) {
+      index_in_part.emplace(c, part_models.size());
+      part_models.push_back(models[c].get());
+      world_from_community.push_back(averaging.world_from_community[c]);
+      owned_image_ids.push_back(communities.own_image_ids[c]);
+      for (const image_t image_id : communities.own_image_ids[c]) {
+        part_image_names.insert(image_names.at(image_id));
+      }
+    }
+    auto merged = std::make_shared<Reconstruction>();
+    std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
+    JoinReconstructions(part_models,
+                        world_from_community,
+                        owned_image_ids,
+                        merged.get(),
+                        &point3D_ids);
+    for (const int c : part_communities) {
+      models[c].reset();  // Joined: the community's copy is not needed.
+    }
+
+    std::vector<std::pair<point3D_t, point3D_t>> corresponding_points;
+    for (size_t e = 0; e < similarities.size(); ++e) {
+      if (!averaging.edges[e].kept ||
+          averaging.part_of_community[similarities[e].community1] != part) {
+        continue;
+      }
+      const auto& ids1 =
+          point3D_ids[index_in_part.at(similarities[e].community1)];
+      const auto& ids2 =
+          point3D_ids[index_in_part.at(similarities[e].community2)];
+      for (const auto& pair : inlier_point3D_ids[e]) {
+        const auto it1 = ids1.find(pair.first);
+        const auto it2 = ids2.find(pair.second);
+        if (it1 != ids1.end() && it2 != ids2.end()) {
+          corresponding_points.emplace_back(it1->second, it2->second);
+        }
+      }
+    }
+    const size_t num_merged_points =
+        MergeCorrespondingPoints(corresponding_points, merged.get());
+    LOG(INFO) << StringPrintf(
+        "Joined %d images and %d points; merged %d corresponding points",
+        static_cast<int>(merged->NumRegImages()),
+        static_cast<int>(merged->NumPoints3D()),
+        static_cast<int>(num_merged_points));
+
+    std::shared_ptr<DatabaseCache> database_cache;
+    {
+      const Database database(options_.database_path);
+      database_cache = DatabaseCache::Create(
+          database,
+          static_cast<size_t>(options_.incremental_options.min_num_matches),
+          options_.incremental_options.ignore_watermarks,
+          part_image_names);
+    }
+    const MergedModelRefinementSummary refinement =
+        RefineMergedModel(options_.refinement,
+                          options_.incremental_options,
+                          std::move(database_cache),
+                          merged);
+    LOG(INFO) << StringPrintf(
+        "Merged model: %d images, %d points, mean reprojection error %.3f px "
+        "(%.3f px before refinement), %d images newly registered",
+        static_cast<int>(merged->NumRegImages()),
+        static_cast<int>(merged->NumPoints3D()),
+        refinement.final_mean_reprojection_error,
+        refinement.initial_mean_reprojection_error,
+        refinement.num_newly_registered_images);
+    if (options_.incremental_options.extract_colors) {
+      merged->ExtractColorsForAllImages(options_.image_path);
+    }
+    merged_models.push_back(merged);
+  }
+
+  std::stable_sort(merged_models.begin(),
+                   merged_models.end(),
+                   [](const std::shared_ptr<Reconstruction>& a,
+                      const std::shared_ptr<Reconstruction>& b) {
+                     return a->NumRegImages() > b->NumRegImages();
+                   });
+  for (const auto& model : merged_models) {
+    summary_.model_num_registered.push_back(
+        static_cast<int>(model->NumRegImages()));
+    reconstruction_manager_->Get(reconstruction_manager_->Add()) = model;
+  }
+  if (!options_.output_path.empty() && !merged_models.empty()) {
+    const std::string path =
+        JoinPaths(options_.output_path, "communities.ply");
+    WriteTextFileAtomically(
+        CommunityCamerasToPly(*merged_models[0], summary_.community_of_image),
+        path);
+  }
+  end_phase("Merge and bundle adjustment");
+
+  //////////////////////////////////////////////////////////////////////////////
+  // Summary
+  //////////////////////////////////////////////////////////////////////////////
+
+  PrintHeading1("Community mapper summary");
+  for (size_t c = 0; c < summary_.community_sizes.size(); ++c) {
+    LOG(INFO) << StringPrintf("Community %d: %d images, %d registered%s",
+                              static_cast<int>(c),
+                              summary_.community_sizes[c],
+                              summary_.community_num_registered[c],
+                              summary_.community_num_models[c] > 1
+                                  ? " (largest of several models)"
+                                  : "");
+  }
+  LOG(INFO) << StringPrintf(
+      "Community pairs: %d joined by view-graph edges, %d with a similarity, "
+      "%d kept, %d dropped",
+      summary_.num_community_pairs,
+      summary_.num_estimated_similarities,
+      summary_.num_kept_similarities,
+      summary_.num_estimated_similarities - summary_.num_kept_similarities);
+  int num_registered = 0;
+  for (size_t m = 0; m < summary_.model_num_registered.size(); ++m) {
+    LOG(INFO) << StringPrintf("Model %d: %d images",
+                              static_cast<int>(m),
+                              summary_.model_num_registered[m]);
+    num_registered += summary_.model_num_registered[m];
+  }
+  LOG(INFO) << StringPrintf("Registered %d of %d images in %d model(s)",
+                            num_registered,
+                            summary_.num_view_graph_images,
+                            static_cast<int>(merged_models.size()));
+  for (const auto& phase : summary_.phase_seconds) {
+    LOG(INFO) << StringPrintf(
+        "Time %-28s %9.3fs", (phase.first + ":").c_str(), phase.second);
+  }
+  run_timer.PrintMinutes();
+}
+
+}  // namespace colmap

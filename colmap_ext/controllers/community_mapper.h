@@ -1,0 +1,136 @@
+// Community-based Structure from Motion (CSfM).
+//
+// Cui, Shen, Gao and Hu, "CSfM: Community-based Structure from Motion",
+// ICIP 2017. The view graph of the database is split into communities of
+// images with dense connections inside and sparse ones outside (greedy
+// modularity, recursive, small communities merged); every community is
+// reconstructed on its own, in parallel, by COLMAP's incremental mapper; the
+// community models are brought into one frame by global similarity
+// averaging (L1 scale, L1RA rotation and L1 translation averaging of the
+// pairwise similarities between connected communities) and merged, and a
+// final bundle adjustment refines the whole model.
+//
+// Compared with COLMAP's HierarchicalMapperController, which partitions by
+// METIS into overlapping clusters and merges them pair by pair, the
+// partition follows the view graph's own structure (and only where there is
+// one), the merge is global, and the merged model is bundle adjusted.
+
+#pragma once
+
+#include "colmap_ext/graph/community_detection.h"
+#include "colmap_ext/graph/view_graph.h"
+#include "colmap_ext/sfm/community_merger.h"
+#include "colmap_ext/sfm/pairwise_similarity.h"
+#include "colmap_ext/sfm/similarity_averaging.h"
+
+#include "colmap/controllers/incremental_mapper.h"
+#include "colmap/scene/reconstruction_manager.h"
+#include "colmap/util/base_controller.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace colmap {
+
+class CommunityMapperController : public BaseController {
+ public:
+  struct Options {
+    // The path to the image folder (only used for the points' colours).
+    std::string image_path;
+
+    // The path to the database file which is used as input.
+    std::string database_path;
+
+    // Folder for communities.txt, communities/K/ (one model per community,
+    // written as soon as it is done) and communities.ply. Empty: the
+    // controller writes nothing.
+    std::string output_path;
+
+    // Split a view (sub)graph only where its peak modularity Qmax exceeds
+    // this value (CSfM: 0.3).
+    double modularity_threshold = 0.3;
+
+    // Communities with fewer images are merged into the connected community
+    // with the most view-graph edges to them (CSfM: N = 20).
+    int min_community_size = 20;
+
+    // Minimum number of verified inlier matches for a view-graph edge;
+    // -1 takes the incremental mapper's min_num_matches.
+    int min_num_matches = -1;
+
+    // Edge weights for community detection: "unit" (every edge 1, as in the
+    // paper) or "num_inliers" (verified inlier count; use it where nearly
+    // every pair is verified, e.g. after exhaustive matching).
+    std::string edge_weights = "unit";
+
+    // Number of images each community borrows from each neighbouring
+    // community, so that neighbours share images and points for the
+    // pairwise similarities (0: communities share nothing, as in the paper).
+    int image_overlap = 5;
+
+    // Stop after the partition (communities.txt), before reconstructing.
+    bool partition_only = false;
+
+    // Number of communities reconstructed at the same time; -1: as many as
+    // there are CPU cores (at most the number of communities). The threads
+    // are split evenly among the workers.
+    int num_workers = -1;
+
+    // Pairwise similarity estimation between connected communities.
+    PairwiseSimilarityOptions pairwise_similarity;
+
+    // Global similarity averaging and edge rejection.
+    SimilarityAveragingOptions similarity_averaging;
+
+    // Refinement of the merged model.
+    MergedModelRefinementOptions refinement;
+
+    // Options of the incremental mapper (per community, and for the
+    // registration, triangulation and bundle adjustment of the merge).
+    IncrementalMapperOptions incremental_options;
+
+    // The minimum number of matches in effect.
+    int MinNumMatches() const;
+
+    bool Check() const;
+  };
+
+  // What happened, for the log's final summary and for tests.
+  struct Summary {
+    int num_view_graph_images = 0;
+    int num_view_graph_edges = 0;
+    int num_view_graph_components = 0;
+    double max_modularity = 0.0;
+    // Per community.
+    std::vector<int> community_sizes;
+    std::vector<int> community_num_registered;
+    std::vector<int> community_num_models;
+    // Pairs of communities joined by view-graph edges, with a pairwise
+    // similarity, and kept by the averaging.
+    int num_community_pairs = 0;
+    int num_estimated_similarities = 0;
+    int num_kept_similarities = 0;
+    // Final models (largest first): registered images of each.
+    std::vector<int> model_num_registered;
+    // Community of every image of the view graph.
+    std::unordered_map<image_t, int> community_of_image;
+    // Phase name and seconds.
+    std::vector<std::pair<std::string, double>> phase_seconds;
+  };
+
+  CommunityMapperController(
+      const Options& options,
+      std::shared_ptr<ReconstructionManager> reconstruction_manager);
+
+  void Run() override;
+
+  const Summary& GetSummary() const { return summary_; }
+
+ private:
+  const Options options_;
+  std::shared_ptr<ReconstructionManager> reconstruction_manager_;
+  Summary summary_;
+};
+
+}  // namespace colmap

@@ -1,0 +1,322 @@
+#include "colmap_ext/graph/community_detection.h"
+
+#include <random>
+#include <set>
+
+#include <gtest/gtest.h>
+#include <igraph.h>
+
+namespace colmap {
+namespace {
+
+// Adds a clique on vertices [first, first + size).
+void AddClique(const int first,
+               const int size,
+               const double weight,
+               WeightedGraph* graph) {
+  graph->num_vertices = std::max(graph->num_vertices, first + size);
+  for (int i = first; i < first + size; ++i) {
+    for (int j = first; j < i; ++j) {
+      graph->edges.push_back({j, i, weight});
+    }
+  }
+}
+
+// Number of distinct communities among the given vertices.
+int NumCommunitiesAmong(const CommunityPartition& partition,
+                        const int first,
+                        const int size) {
+  std::set<int> labels;
+  for (int i = first; i < first + size; ++i) {
+    labels.insert(partition.membership[i]);
+  }
+  return static_cast<int>(labels.size());
+}
+
+CommunityDetectionOptions Options(const int min_community_size) {
+  CommunityDetectionOptions options;
+  options.min_community_size = min_community_size;
+  return options;
+}
+
+TEST(DetectCommunities, TwoCliquesJoinedByOneEdge) {
+  WeightedGraph graph;
+  AddClique(/*first=*/0, /*size=*/25, /*weight=*/1, &graph);
+  AddClique(/*first=*/25, /*size=*/25, /*weight=*/1, &graph);
+  graph.edges.push_back({3, 30, 1});
+
+  const CommunityPartition partition = DetectCommunities(
+      graph, GreedyModularityPartitioner(), CommunityDetectionOptions());
+
+  EXPECT_EQ(partition.NumCommunities(), 2);
+  EXPECT_EQ(NumCommunitiesAmong(partition, 0, 25), 1);
+  EXPECT_EQ(NumCommunitiesAmong(partition, 25, 25), 1);
+  EXPECT_NE(partition.membership[0], partition.membership[25]);
+  EXPECT_EQ(partition.num_components, 1);
+  ASSERT_FALSE(partition.splits.empty());
+  EXPECT_TRUE(partition.splits[0].accepted);
+  EXPECT_GT(partition.splits[0].modularity, 0.45);
+}
+
+TEST(DetectCommunities, RingOfFourDenseClusters) {
+  WeightedGraph graph;
+  const int kClusterSize = 30;
+  for (int c = 0; c < 4; ++c) {
+    AddClique(c * kClusterSize, kClusterSize, 1, &graph);
+  }
+  // Each cluster is joined to the next by two edges, closing a ring.
+  for (int c = 0; c < 4; ++c) {
+    const int next = (c + 1) % 4;
+    graph.edges.push_back({c * kClusterSize, next * kClusterSize + 1, 1});
+    graph.edges.push_back({c * kClusterSize + 2, next * kClusterSize + 3, 1});
+  }
+
+  const CommunityPartition partition = DetectCommunities(
+      graph, GreedyModularityPartitioner(), CommunityDetectionOptions());
+
+  ASSERT_EQ(partition.NumCommunities(), 4);
+  std::set<int> labels;
+  for (int c = 0; c < 4; ++c) {
+    EXPECT_EQ(NumCommunitiesAmong(partition, c * kClusterSize, kClusterSize),
+              1);
+    labels.insert(partition.membership[c * kClusterSize]);
+  }
+  EXPECT_EQ(labels.size(), 4);
+}
+
+TEST(DetectCommunities, DenseRandomGraphStaysOneCommunity) {
+  std::mt19937 rng(42);
+  std::bernoulli_distribution has_edge(0.5);
+  WeightedGraph graph;
+  graph.num_vertices = 80;
+  for (int i = 0; i < graph.num_vertices; ++i) {
+    for (int j = 0; j < i; ++j) {
+      if (has_edge(rng)) {
+        graph.edges.push_back({j, i, 1});
+      }
+    }
+  }
+
+  const CommunityPartition partition = DetectCommunities(
+      graph, GreedyModularityPartitioner(), CommunityDetectionOptions());
+
+  EXPECT_EQ(partition.NumCommunities(), 1);
+  ASSERT_EQ(partition.splits.size(), 1);
+  EXPECT_LT(partition.splits[0].modularity, 0.3);
+  EXPECT_FALSE(partition.splits[0].accepted);
+}
+
+TEST(GreedyModularityPartitioner, ZacharyKarateClubQmax) {
+  igraph_t karate;
+  ASSERT_EQ(igraph_famous(&karate, "Zachary"), IGRAPH_SUCCESS);
+  WeightedGraph graph;
+  graph.num_vertices = static_cast<int>(igraph_vcount(&karate));
+  for (igraph_integer_t e = 0; e < igraph_ecount(&karate); ++e) {
+    graph.edges.push_back({static_cast<int>(IGRAPH_FROM(&karate, e)),
+                           static_cast<int>(IGRAPH_TO(&karate, e)),
+                           1.0});
+  }
+  igraph_destroy(&karate);
+  ASSERT_EQ(graph.num_vertices, 34);
+  ASSERT_EQ(graph.edges.size(), 78);
+
+  const GraphPartitioner::Result result =
+      GreedyModularityPartitioner().Partition(graph);
+
+  // Clauset, Newman and Moore's greedy algorithm on the karate club peaks at
+  // Q = 0.3807 with three communities.
+  EXPECT_NEAR(result.modularity, 0.3807, 1e-4);
+  EXPECT_EQ(result.num_communities, 3);
+  EXPECT_NEAR(ComputeModularity(graph, result.membership),
+              result.modularity,
+              1e-9);
+}
+
+TEST(DetectCommunities, SmallCommunityMergedIntoNeighbourWithMostCrossEdges) {
+  // Cliques A (30), B (30) and a small clique S (6). S has 3 edges to B and
+  // 1 edge to A, so it belongs to B after the merge.
+  WeightedGraph graph;
+  AddClique(/*first=*/0, /*size=*/30, 1, &graph);   // A
+  AddClique(/*first=*/30, /*size=*/30, 1, &graph);  // B
+  AddClique(/*first=*/60, /*size=*/6, 1, &graph);   // S
+  graph.edges.push_back({0, 30, 1});
+  graph.edges.push_back({60, 5, 1});
+  graph.edges.push_back({61, 35, 1});
+  graph.edges.push_back({62, 36, 1});
+  graph.edges.push_back({63, 37, 1});
+
+  const CommunityPartition unmerged = DetectCommunities(
+      graph, GreedyModularityPartitioner(), Options(/*min_community_size=*/2));
+  ASSERT_EQ(unmerged.NumCommunities(), 3);
+
+  const CommunityPartition merged = DetectCommunities(
+      graph, GreedyModularityPartitioner(), Options(/*min_community_size=*/20));
+  EXPECT_EQ(merged.num_communities_before_merge, 3);
+  ASSERT_EQ(merged.NumCommunities(), 2);
+  EXPECT_EQ(NumCommunitiesAmong(merged, 30, 36), 1);
+  EXPECT_NE(merged.membership[0], merged.membership[60]);
+  // Largest community first.
+  EXPECT_EQ(merged.membership[60], 0);
+}
+
+TEST(DetectCommunities, SmallCommunitiesMergeUntilOnlyOneIsLeft) {
+  WeightedGraph graph;
+  AddClique(/*first=*/0, /*size=*/10, 1, &graph);
+  AddClique(/*first=*/10, /*size=*/10, 1, &graph);
+  graph.edges.push_back({0, 10, 1});
+
+  const CommunityPartition partition = DetectCommunities(
+      graph, GreedyModularityPartitioner(), Options(/*min_community_size=*/20));
+
+  EXPECT_EQ(partition.num_communities_before_merge, 2);
+  EXPECT_EQ(partition.NumCommunities(), 1);
+}
+
+TEST(DetectCommunities, ComponentsArePartitionedSeparately) {
+  // Component 1: two cliques joined by an edge. Component 2: one clique,
+  // smaller than the minimum size, which has nothing to merge into.
+  WeightedGraph graph;
+  AddClique(/*first=*/0, /*size=*/25, 1, &graph);
+  AddClique(/*first=*/25, /*size=*/25, 1, &graph);
+  graph.edges.push_back({0, 25, 1});
+  AddClique(/*first=*/50, /*size=*/8, 1, &graph);
+
+  const CommunityPartition partition = DetectCommunities(
+      graph, GreedyModularityPartitioner(), CommunityDetectionOptions());
+
+  EXPECT_EQ(partition.num_components, 2);
+  ASSERT_EQ(partition.NumCommunities(), 3);
+  EXPECT_EQ(NumCommunitiesAmong(partition, 0, 25), 1);
+  EXPECT_EQ(NumCommunitiesAmong(partition, 25, 25), 1);
+  EXPECT_EQ(NumCommunitiesAmong(partition, 50, 8), 1);
+  EXPECT_EQ(partition.membership[50], 2);  // the smallest comes last
+  // Both components were examined on their own.
+  int num_top_level_splits = 0;
+  for (const auto& split : partition.splits) {
+    num_top_level_splits += split.depth == 0;
+  }
+  EXPECT_EQ(num_top_level_splits, 2);
+}
+
+TEST(DetectCommunities, WeightsRevealStructureThatUnitWeightsHide) {
+  // A complete graph on 40 images, as exhaustive matching of a small scene
+  // produces: every pair is verified, but pairs within each half have many
+  // more inliers than pairs across the halves.
+  std::vector<std::pair<image_t, image_t>> pairs;
+  std::vector<int> num_inliers;
+  for (image_t i = 1; i <= 40; ++i) {
+    for (image_t j = 1; j < i; ++j) {
+      pairs.emplace_back(j, i);
+      num_inliers.push_back(((i <= 20) == (j <= 20)) ? 500 : 20);
+    }
+  }
+  const ViewGraph view_graph =
+      ViewGraph::Create(pairs, num_inliers, /*min_num_matches=*/15);
+  ASSERT_EQ(view_graph.NumEdges(), 40 * 39 / 2);
+
+  const CommunityPartition unit =
+      DetectCommunities(view_graph.ToWeightedGraph(ViewGraphEdgeWeight::kUnit),
+                        GreedyModularityPartitioner(),
+                        Options(/*min_community_size=*/5));
+  EXPECT_EQ(unit.NumCommunities(), 1);
+  EXPECT_LT(unit.MaxModularity(), 0.3);
+
+  const CommunityPartition weighted = DetectCommunities(
+      view_graph.ToWeightedGraph(ViewGraphEdgeWeight::kNumInliers),
+      GreedyModularityPartitioner(),
+      Options(/*min_community_size=*/5));
+  ASSERT_EQ(weighted.NumCommunities(), 2);
+  EXPECT_GT(weighted.MaxModularity(), 0.3);
+  for (int vertex = 0; vertex < 40; ++vertex) {
+    const bool first_half = view_graph.ImageIds()[vertex] <= 20;
+    EXPECT_EQ(weighted.membership[vertex] == weighted.membership[0],
+              first_half);
+  }
+}
+
+// Splits every graph of more than 8 vertices into two halves (by vertex
+// index) with a fixed modularity: exercises the recursion alone.
+class HalvingPartitioner : public GraphPartitioner {
+ public:
+  explicit HalvingPartitioner(double modularity) : modularity_(modularity) {}
+  std::string Name() const override { return "halving"; }
+  Result Partition(const WeightedGraph& graph) const override {
+    Result result;
+    result.membership.resize(graph.num_vertices);
+    for (int i = 0; i < graph.num_vertices; ++i) {
+      result.membership[i] = (graph.num_vertices > 8 &&
+                              i >= graph.num_vertices / 2)
+                                 ? 1
+                                 : 0;
+    }
+    result.num_communities = graph.num_vertices > 8 ? 2 : 1;
+    result.modularity = graph.num_vertices > 8 ? modularity_ : 0.0;
+    return result;
+  }
+
+ private:
+  const double modularity_;
+};
+
+WeightedGraph Path(const int num_vertices) {
+  WeightedGraph graph;
+  graph.num_vertices = num_vertices;
+  for (int i = 1; i < num_vertices; ++i) {
+    graph.edges.push_back({i - 1, i, 1});
+  }
+  return graph;
+}
+
+TEST(DetectCommunities, RecursesUntilNoCommunitySplits) {
+  const CommunityPartition partition =
+      DetectCommunities(Path(32),
+                        HalvingPartitioner(/*modularity=*/0.5),
+                        Options(/*min_community_size=*/2));
+  // 32 -> 16 -> 8: four communities of eight consecutive vertices.
+  ASSERT_EQ(partition.NumCommunities(), 4);
+  for (int c = 0; c < 4; ++c) {
+    EXPECT_EQ(NumCommunitiesAmong(partition, 8 * c, 8), 1);
+  }
+  int max_depth = 0;
+  for (const auto& split : partition.splits) {
+    max_depth = std::max(max_depth, split.depth);
+  }
+  EXPECT_EQ(max_depth, 2);
+}
+
+TEST(DetectCommunities, ModularityAtThresholdDoesNotSplit) {
+  CommunityDetectionOptions options = Options(/*min_community_size=*/2);
+  options.modularity_threshold = 0.5;
+  const CommunityPartition partition = DetectCommunities(
+      Path(32), HalvingPartitioner(/*modularity=*/0.5), options);
+  EXPECT_EQ(partition.NumCommunities(), 1);
+}
+
+TEST(DetectCommunities, IsolatedVerticesAndEmptyGraph) {
+  WeightedGraph graph;
+  graph.num_vertices = 3;
+  const CommunityPartition partition = DetectCommunities(
+      graph, GreedyModularityPartitioner(), CommunityDetectionOptions());
+  EXPECT_EQ(partition.num_components, 3);
+  EXPECT_EQ(partition.NumCommunities(), 3);
+  EXPECT_TRUE(partition.splits.empty());
+
+  const CommunityPartition empty = DetectCommunities(
+      WeightedGraph(), GreedyModularityPartitioner(), CommunityDetectionOptions());
+  EXPECT_EQ(empty.NumCommunities(), 0);
+}
+
+TEST(CommunityDetectionOptions, Check) {
+  CommunityDetectionOptions options;
+  EXPECT_TRUE(options.Check());
+  options.modularity_threshold = 1.0;
+  EXPECT_FALSE(options.Check());
+  options.modularity_threshold = -0.1;
+  EXPECT_FALSE(options.Check());
+  options.modularity_threshold = 0.3;
+  options.min_community_size = 1;
+  EXPECT_FALSE(options.Check());
+}
+
+}  // namespace
+}  // namespace colmap

@@ -1,0 +1,170 @@
+#include "colmap_ext/graph/view_graph.h"
+
+#include "colmap/util/logging.h"
+
+#include <algorithm>
+#include <map>
+#include <numeric>
+
+namespace colmap {
+
+WeightedGraph WeightedGraph::InducedSubgraph(
+    const std::vector<int>& vertices) const {
+  std::vector<int> new_index(num_vertices, -1);
+  for (size_t i = 0; i < vertices.size(); ++i) {
+    THROW_CHECK_GE(vertices[i], 0);
+    THROW_CHECK_LT(vertices[i], num_vertices);
+    new_index[vertices[i]] = static_cast<int>(i);
+  }
+  WeightedGraph subgraph;
+  subgraph.num_vertices = static_cast<int>(vertices.size());
+  for (const Edge& edge : edges) {
+    const int vertex1 = new_index[edge.vertex1];
+    const int vertex2 = new_index[edge.vertex2];
+    if (vertex1 >= 0 && vertex2 >= 0) {
+      subgraph.edges.push_back({vertex1, vertex2, edge.weight});
+    }
+  }
+  return subgraph;
+}
+
+std::vector<std::vector<int>> WeightedGraph::ConnectedComponents() const {
+  // Union-find with path halving.
+  std::vector<int> parent(num_vertices);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&parent](int vertex) {
+    while (parent[vertex] != vertex) {
+      parent[vertex] = parent[parent[vertex]];
+      vertex = parent[vertex];
+    }
+    return vertex;
+  };
+  for (const Edge& edge : edges) {
+    parent[find(edge.vertex1)] = find(edge.vertex2);
+  }
+
+  std::map<int, std::vector<int>> components_by_root;
+  for (int vertex = 0; vertex < num_vertices; ++vertex) {
+    components_by_root[find(vertex)].push_back(vertex);
+  }
+  std::vector<std::vector<int>> components;
+  components.reserve(components_by_root.size());
+  for (auto& root_and_component : components_by_root) {
+    components.push_back(std::move(root_and_component.second));
+  }
+  std::stable_sort(components.begin(),
+                   components.end(),
+                   [](const std::vector<int>& a, const std::vector<int>& b) {
+                     return a.size() > b.size();
+                   });
+  return components;
+}
+
+ViewGraphEdgeWeight ViewGraphEdgeWeightFromString(const std::string& name) {
+  if (name == "unit") {
+    return ViewGraphEdgeWeight::kUnit;
+  } else if (name == "num_inliers") {
+    return ViewGraphEdgeWeight::kNumInliers;
+  }
+  LOG(FATAL_THROW) << "Unknown edge weight type '" << name
+                   << "': use 'unit' or 'num_inliers'.";
+  return ViewGraphEdgeWeight::kUnit;
+}
+
+std::string ViewGraphEdgeWeightToString(const ViewGraphEdgeWeight weight) {
+  switch (weight) {
+    case ViewGraphEdgeWeight::kUnit:
+      return "unit";
+    case ViewGraphEdgeWeight::kNumInliers:
+      return "num_inliers";
+  }
+  return "unknown";
+}
+
+ViewGraph ViewGraph::Read(const Database& database, const int min_num_matches) {
+  std::vector<std::pair<image_t, image_t>> image_pairs;
+  std::vector<int> num_inliers;
+  database.ReadTwoViewGeometryNumInliers(&image_pairs, &num_inliers);
+
+  std::unordered_map<image_t, std::string> image_names;
+  for (const Image& image : database.ReadAllImages()) {
+    image_names.emplace(image.ImageId(), image.Name());
+  }
+  return Create(image_pairs, num_inliers, min_num_matches, image_names);
+}
+
+ViewGraph ViewGraph::Create(
+    const std::vector<std::pair<image_t, image_t>>& image_pairs,
+    const std::vector<int>& num_inliers,
+    const int min_num_matches,
+    const std::unordered_map<image_t, std::string>& image_names) {
+  THROW_CHECK_EQ(image_pairs.size(), num_inliers.size());
+
+  // Keep the strongest entry of each unordered pair; a well-formed database
+  // has one entry per pair anyway.
+  std::map<std::pair<image_t, image_t>, int> pair_to_num_inliers;
+  for (size_t i = 0; i < image_pairs.size(); ++i) {
+    image_t image_id1 = image_pairs[i].first;
+    image_t image_id2 = image_pairs[i].second;
+    if (image_id1 == image_id2 || num_inliers[i] < min_num_matches) {
+      continue;
+    }
+    if (image_id1 > image_id2) {
+      std::swap(image_id1, image_id2);
+    }
+    int& pair_num_inliers = pair_to_num_inliers[{image_id1, image_id2}];
+    pair_num_inliers = std::max(pair_num_inliers, num_inliers[i]);
+  }
+
+  // Vertices in ascending image id order, so that the graph does not depend
+  // on the order in which the database returns the pairs.
+  ViewGraph graph;
+  for (const auto& pair_and_num_inliers : pair_to_num_inliers) {
+    graph.image_ids_.push_back(pair_and_num_inliers.first.first);
+    graph.image_ids_.push_back(pair_and_num_inliers.first.second);
+  }
+  std::sort(graph.image_ids_.begin(), graph.image_ids_.end());
+  graph.image_ids_.erase(
+      std::unique(graph.image_ids_.begin(), graph.image_ids_.end()),
+      graph.image_ids_.end());
+  std::unordered_map<image_t, int> image_id_to_vertex;
+  for (size_t vertex = 0; vertex < graph.image_ids_.size(); ++vertex) {
+    image_id_to_vertex.emplace(graph.image_ids_[vertex],
+                               static_cast<int>(vertex));
+  }
+
+  graph.edges_.reserve(pair_to_num_inliers.size());
+  for (const auto& pair_and_num_inliers : pair_to_num_inliers) {
+    graph.edges_.push_back(
+        {image_id_to_vertex.at(pair_and_num_inliers.first.first),
+         image_id_to_vertex.at(pair_and_num_inliers.first.second),
+         pair_and_num_inliers.second});
+  }
+
+  graph.image_names_.reserve(graph.image_ids_.size());
+  for (const image_t image_id : graph.image_ids_) {
+    const auto it = image_names.find(image_id);
+    graph.image_names_.push_back(it != image_names.end()
+                                     ? it->second
+                                     : "image" + std::to_string(image_id));
+  }
+  return graph;
+}
+
+WeightedGraph ViewGraph::ToWeightedGraph(
+    const ViewGraphEdgeWeight weight) const {
+  WeightedGraph graph;
+  graph.num_vertices = static_cast<int>(image_ids_.size());
+  graph.edges.reserve(edges_.size());
+  for (const Edge& edge : edges_) {
+    graph.edges.push_back(
+        {edge.vertex1,
+         edge.vertex2,
+         weight == ViewGraphEdgeWeight::kUnit
+             ? 1.0
+             : static_cast<double>(edge.num_inliers)});
+  }
+  return graph;
+}
+
+}  // namespace colmap

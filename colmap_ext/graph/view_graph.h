@@ -1,0 +1,95 @@
+// The epipolar-geometry graph ("view graph") of a COLMAP database.
+//
+// CSfM (Cui et al., "CSfM: Community-based Structure from Motion", ICIP 2017),
+// section 2: images are vertices and verified image pairs are edges. An edge
+// exists where the two-view geometry of a pair has at least `min_num_matches`
+// verified inlier matches, the same rule by which COLMAP's incremental mapper
+// decides which pairs it uses. Images without any such edge are not part of
+// the graph, as the mapper cannot register them either.
+
+#pragma once
+
+#include "colmap/scene/database.h"
+#include "colmap/util/types.h"
+
+#include <string>
+#include <vector>
+
+namespace colmap {
+
+// An undirected graph on vertices 0..num_vertices-1 with positive edge
+// weights. It is the input of community detection, which therefore needs no
+// database and can be tested on literal graphs.
+struct WeightedGraph {
+  struct Edge {
+    int vertex1 = -1;
+    int vertex2 = -1;
+    double weight = 1.0;
+  };
+
+  int num_vertices = 0;
+  std::vector<Edge> edges;
+
+  // The subgraph induced by the given vertices. Vertex i of the subgraph is
+  // vertices[i] of this graph.
+  WeightedGraph InducedSubgraph(const std::vector<int>& vertices) const;
+
+  // The connected components as lists of vertices, largest first, each list
+  // sorted ascending.
+  std::vector<std::vector<int>> ConnectedComponents() const;
+};
+
+// How the view graph's edges are weighted for community detection.
+enum class ViewGraphEdgeWeight {
+  // Every edge has weight 1 (A_ij = 1, as in the CSfM paper).
+  kUnit,
+  // Every edge is weighted by its number of verified inlier matches. Where
+  // nearly every pair is verified (exhaustive matching of a small scene), the
+  // unit-weight graph is almost complete and shows no structure, while the
+  // inlier counts still do.
+  kNumInliers,
+};
+
+// Parses "unit" or "num_inliers"; throws on anything else.
+ViewGraphEdgeWeight ViewGraphEdgeWeightFromString(const std::string& name);
+std::string ViewGraphEdgeWeightToString(ViewGraphEdgeWeight weight);
+
+class ViewGraph {
+ public:
+  struct Edge {
+    // Indices into ImageIds().
+    int vertex1 = -1;
+    int vertex2 = -1;
+    int num_inliers = 0;
+  };
+
+  // Reads the verified pairs of the database. Only the inlier counts are
+  // read, not the matches themselves, so this is cheap even for large
+  // databases.
+  static ViewGraph Read(const Database& database, int min_num_matches);
+
+  // Builds the graph from a list of image pairs with their inlier counts.
+  // Pairs below `min_num_matches` are ignored; image names are optional.
+  static ViewGraph Create(
+      const std::vector<std::pair<image_t, image_t>>& image_pairs,
+      const std::vector<int>& num_inliers,
+      int min_num_matches,
+      const std::unordered_map<image_t, std::string>& image_names = {});
+
+  size_t NumVertices() const { return image_ids_.size(); }
+  size_t NumEdges() const { return edges_.size(); }
+
+  const std::vector<image_t>& ImageIds() const { return image_ids_; }
+  const std::vector<std::string>& ImageNames() const { return image_names_; }
+  const std::vector<Edge>& Edges() const { return edges_; }
+
+  // The graph with the requested edge weights.
+  WeightedGraph ToWeightedGraph(ViewGraphEdgeWeight weight) const;
+
+ private:
+  std::vector<image_t> image_ids_;
+  std::vector<std::string> image_names_;
+  std::vector<Edge> edges_;
+};
+
+}  // namespace colmap

@@ -1,0 +1,105 @@
+#include "colmap_ext/graph/view_graph.h"
+
+#include "colmap_ext/util/testing.h"
+
+#include "colmap/scene/database.h"
+#include "colmap/util/misc.h"
+
+#include <gtest/gtest.h>
+
+namespace colmap {
+namespace {
+
+TEST(ViewGraph, CreateKeepsPairsWithEnoughInliers) {
+  const std::vector<std::pair<image_t, image_t>> pairs = {
+      {1, 2}, {2, 3}, {3, 4}, {7, 5}, {2, 1}, {4, 4}};
+  const std::vector<int> num_inliers = {100, 14, 15, 30, 120, 50};
+  const ViewGraph graph = ViewGraph::Create(
+      pairs, num_inliers, /*min_num_matches=*/15, {{1, "a.jpg"}});
+
+  // Image 2-3 is below the threshold, 4-4 is no pair, and 1-2 appears twice.
+  EXPECT_EQ(graph.ImageIds(), (std::vector<image_t>{1, 2, 3, 4, 5, 7}));
+  ASSERT_EQ(graph.NumEdges(), 3);
+  EXPECT_EQ(graph.ImageNames()[0], "a.jpg");
+  EXPECT_EQ(graph.ImageNames()[1], "image2");
+
+  const ViewGraph::Edge& edge12 = graph.Edges()[0];
+  EXPECT_EQ(graph.ImageIds()[edge12.vertex1], 1);
+  EXPECT_EQ(graph.ImageIds()[edge12.vertex2], 2);
+  EXPECT_EQ(edge12.num_inliers, 120);
+
+  const WeightedGraph unit = graph.ToWeightedGraph(ViewGraphEdgeWeight::kUnit);
+  const WeightedGraph weighted =
+      graph.ToWeightedGraph(ViewGraphEdgeWeight::kNumInliers);
+  EXPECT_EQ(unit.num_vertices, 6);
+  EXPECT_EQ(unit.edges[0].weight, 1.0);
+  EXPECT_EQ(weighted.edges[0].weight, 120.0);
+
+  // {1, 2}, {3, 4} and {5, 7}.
+  const auto components = unit.ConnectedComponents();
+  ASSERT_EQ(components.size(), 3);
+  EXPECT_EQ(components[0], (std::vector<int>{0, 1}));
+  EXPECT_EQ(components[1], (std::vector<int>{2, 3}));
+  EXPECT_EQ(components[2], (std::vector<int>{4, 5}));
+}
+
+TEST(WeightedGraph, InducedSubgraph) {
+  WeightedGraph graph;
+  graph.num_vertices = 4;
+  graph.edges = {{0, 1, 1.0}, {1, 2, 2.0}, {2, 3, 3.0}, {3, 0, 4.0}};
+  const WeightedGraph subgraph = graph.InducedSubgraph({3, 2, 1});
+  EXPECT_EQ(subgraph.num_vertices, 3);
+  ASSERT_EQ(subgraph.edges.size(), 2);
+  EXPECT_EQ(subgraph.edges[0].vertex1, 2);
+  EXPECT_EQ(subgraph.edges[0].vertex2, 1);
+  EXPECT_EQ(subgraph.edges[0].weight, 2.0);
+  EXPECT_EQ(subgraph.edges[1].weight, 3.0);
+}
+
+TEST(ViewGraph, ReadFromDatabase) {
+  const std::string test_dir = CreateTestDir();
+  Database database(JoinPaths(test_dir, "database.db"));
+  Camera camera = Camera::CreateFromModelName(
+      kInvalidCameraId, "SIMPLE_PINHOLE", 100, 100, 100);
+  const camera_t camera_id = database.WriteCamera(camera);
+  std::vector<image_t> image_ids;
+  for (int i = 0; i < 4; ++i) {
+    Image image;
+    image.SetName("image" + std::to_string(i) + ".png");
+    image.SetCameraId(camera_id);
+    image_ids.push_back(database.WriteImage(image));
+  }
+  auto write_pair = [&](int i, int j, int num_inliers) {
+    TwoViewGeometry two_view_geometry;
+    two_view_geometry.config = TwoViewGeometry::CALIBRATED;
+    for (int k = 0; k < num_inliers; ++k) {
+      two_view_geometry.inlier_matches.emplace_back(k, k);
+    }
+    database.WriteTwoViewGeometry(
+        image_ids[i], image_ids[j], two_view_geometry);
+  };
+  write_pair(0, 1, 40);
+  write_pair(1, 2, 10);
+  write_pair(2, 3, 0);
+
+  const ViewGraph graph = ViewGraph::Read(database, /*min_num_matches=*/15);
+  ASSERT_EQ(graph.NumVertices(), 2);
+  ASSERT_EQ(graph.NumEdges(), 1);
+  EXPECT_EQ(graph.ImageNames()[0], "image0.png");
+  EXPECT_EQ(graph.ImageNames()[1], "image1.png");
+  EXPECT_EQ(graph.Edges()[0].num_inliers, 40);
+
+  const ViewGraph loose = ViewGraph::Read(database, /*min_num_matches=*/5);
+  EXPECT_EQ(loose.NumVertices(), 3);
+  EXPECT_EQ(loose.NumEdges(), 2);
+}
+
+TEST(ViewGraphEdgeWeight, FromString) {
+  EXPECT_EQ(ViewGraphEdgeWeightFromString("unit"), ViewGraphEdgeWeight::kUnit);
+  EXPECT_EQ(ViewGraphEdgeWeightFromString("num_inliers"),
+            ViewGraphEdgeWeight::kNumInliers);
+  EXPECT_THROW(ViewGraphEdgeWeightFromString("inliers"), std::exception);
+}
+
+}  // namespace
+}  // namespace colmap

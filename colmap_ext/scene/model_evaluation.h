@@ -1,0 +1,58 @@
+// Accuracy of a sparse model against ground-truth cameras.
+//
+// The model's camera centres are aligned to the ground truth's by a robust
+// similarity transform (LO-RANSAC over the images both share, inlier
+// threshold a fraction of the ground truth's extent), then every shared
+// image's position error |C_gt - T(C_model)| and rotation error (angle of
+// R_gt R_model'^T, R_model' the rotation after alignment) are measured. The
+// extent is the diagonal of the bounding box of the ground-truth camera
+// centres. Images are matched by name.
+
+#pragma once
+
+#include "colmap/geometry/sim3.h"
+#include "colmap/scene/reconstruction.h"
+
+#include <string>
+#include <vector>
+
+namespace colmap {
+
+struct ModelEvaluationOptions {
+  // Inlier threshold of the robust alignment, as a fraction of the extent.
+  double alignment_max_error_fraction = 0.05;
+
+  bool Check() const;
+};
+
+struct ModelEvaluation {
+  int num_ground_truth_images = 0;
+  // Registered images of the model that the ground truth also has.
+  int num_registered_images = 0;
+  int num_points3D = 0;
+  double mean_reprojection_error = 0.0;
+
+  // Whether a similarity alignment was found (needs 3 shared images).
+  bool aligned = false;
+  Sim3d ground_truth_from_model;
+  double extent = 0.0;
+  // Over all shared registered images (NaN when not aligned).
+  double median_position_error = 0.0;
+  double p90_position_error = 0.0;
+  double max_position_error = 0.0;
+  double median_rotation_error_deg = 0.0;
+
+  // Per shared image, in the order of image names.
+  std::vector<std::string> image_names;
+  std::vector<double> position_errors;
+  std::vector<double> rotation_errors_deg;
+};
+
+ModelEvaluation EvaluateModel(const Reconstruction& model,
+                              const Reconstruction& ground_truth,
+                              const ModelEvaluationOptions& options = {});
+
+// "key value" lines, one figure per line, for scripts to read.
+std::string ModelEvaluationToString(const ModelEvaluation& evaluation);
+
+}  // namespace colmap

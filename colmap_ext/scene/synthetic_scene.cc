@@ -1,0 +1,560 @@
+#include "colmap_ext/scene/synthetic_scene.h"
+
+#include "colmap/geometry/essential_matrix.h"
+#include "colmap/geometry/pose.h"
+#include "colmap/util/logging.h"
+#include "colmap/util/misc.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <unordered_set>
+
+namespace colmap {
+namespace {
+
+constexpr double kTowerRadius = 6.0;
+constexpr double kTowerHeight = 15.0;
+constexpr double kGroundRadius = 22.0;
+constexpr double kRingMinRadius = 14.0;
+constexpr double kRingMaxRadius = 24.0;
+constexpr double kCameraHeight = 1.6;
+constexpr double kWallHeight = 8.0;
+constexpr double kWallDistance = 10.0;
+constexpr double kMaxWalkwayTurnDeg = 60.0;
+// A surface point is seen up to this angle between its normal and the ray.
+constexpr double kMaxSurfaceViewingAngleDeg = 80.0;
+
+class Random {
+ public:
+  explicit Random(unsigned int seed) : engine_(seed) {}
+  // Own transforms of the engine's integers: the standard distributions are
+  // implementation-defined, and the same seed must give the same bytes.
+  double Uniform(double min, double max) {
+    const double unit = static_cast<double>(engine_() >> 11) *
+                        (1.0 / 9007199254740992.0);  // 2^-53
+    return min + (max - min) * unit;
+  }
+  double Gaussian(double stddev) {
+    // Box-Muller.
+    const double u1 = std::max(Uniform(0, 1), 1e-300);
+    const double u2 = Uniform(0, 1);
+    return stddev * std::sqrt(-2.0 * std::log(u1)) * std::cos(2 * M_PI * u2);
+  }
+  int Integer(int min, int max) {  // inclusive
+    return min + static_cast<int>(engine_() % static_cast<uint64_t>(
+                                                  max - min + 1));
+  }
+  template <typename T>
+  void Shuffle(std::vector<T>* values) {
+    for (size_t i = values->size(); i > 1; --i) {
+      std::swap((*values)[i - 1], (*values)[Integer(0, static_cast<int>(i) - 1)]);
+    }
+  }
+
+ private:
+  std::mt19937_64 engine_;
+};
+
+struct ScenePoint {
+  Eigen::Vector3d xyz;
+  // Zero for features visible from every side.
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+};
+
+struct ScenePose {
+  Rigid3d cam_from_world;
+  int cluster = -1;
+};
+
+// Camera at `center` looking towards `target` (world z up), rolled by `roll`.
+Rigid3d LookAt(const Eigen::Vector3d& center,
+               const Eigen::Vector3d& target,
+               const double roll) {
+  const Eigen::Vector3d forward = (target - center).normalized();
+  const Eigen::Vector3d right =
+      forward.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d down = forward.cross(right);
+  Eigen::Matrix3d R;
+  R.row(0) = right.transpose();
+  R.row(1) = down.transpose();
+  R.row(2) = forward.transpose();
+  R = Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()).toRotationMatrix() * R;
+  Rigid3d cam_from_world;
+  cam_from_world.rotation = Eigen::Quaterniond(R);
+  cam_from_world.translation = -(R * center);
+  return cam_from_world;
+}
+
+// Whether the segment from a to b passes through a tower (in the ground
+// plane; towers are taller than anything behind them). A point on a tower's
+// surface that faces a is not hidden by its own tower: the segment only
+// touches the tower at its end.
+bool HiddenByTower(const Eigen::Vector3d& a,
+                   const Eigen::Vector3d& b,
+                   const std::vector<Eigen::Vector2d>& towers) {
+  const Eigen::Vector2d a2 = a.head<2>();
+  const Eigen::Vector2d d = b.head<2>() - a2;
+  const double length_sq = std::max(d.squaredNorm(), 1e-12);
+  for (const Eigen::Vector2d& tower : towers) {
+    const double t =
+        std::min(1.0, std::max(0.0, (tower - a2).dot(d) / length_sq));
+    if ((a2 + t * d - tower).norm() < kTowerRadius - 0.05) {
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+bool SyntheticSceneOptions::Check() const {
+  CHECK_OPTION_GE(num_clusters, 1);
+  CHECK_OPTION_GE(num_images_per_cluster, 2);
+  CHECK_OPTION_GE(num_images_per_link, 0);
+  CHECK_OPTION_GT(landmark_spacing, 2 * kRingMaxRadius);
+  CHECK_OPTION_GE(num_points_per_cluster, 10);
+  CHECK_OPTION_GE(num_points_per_link, 0);
+  CHECK_OPTION_GT(image_width, 0);
+  CHECK_OPTION_GT(image_height, 0);
+  CHECK_OPTION_GT(focal_length, 0);
+  CHECK_OPTION_GE(keypoint_noise, 0);
+  CHECK_OPTION_GE(num_distractor_keypoints, 0);
+  CHECK_OPTION_GT(max_viewing_distance, 0);
+  CHECK_OPTION_GE(min_num_inliers, 1);
+  CHECK_OPTION_GE(outlier_match_ratio, 0);
+  CHECK_OPTION_GE(num_false_pairs, 0);
+  CHECK_OPTION_GE(false_pair_num_matches, 1);
+  return true;
+}
+
+void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
+                              SyntheticScene* scene,
+                              Database* database) {
+  THROW_CHECK(options.Check());
+  THROW_CHECK_NOTNULL(scene);
+  if (database != nullptr) {
+    THROW_CHECK_EQ(database->NumImages(), 0)
+        << "The scene must be written to an empty database.";
+  }
+  Random random(options.seed);
+  *scene = SyntheticScene();
+  Reconstruction& reconstruction = scene->ground_truth;
+
+  //////////////////////////////////////////////////////////////////////////////
+  // Landmarks and walkways
+  //////////////////////////////////////////////////////////////////////////////
+
+  const int num_clusters = options.num_clusters;
+  std::vector<Eigen::Vector2d> towers(num_clusters);
+  if (num_clusters == 1) {
+    towers[0].setZero();
+  } else if (num_clusters == 2) {
+    towers[0] = Eigen::Vector2d(-options.landmark_spacing / 2, 0);
+    towers[1] = Eigen::Vector2d(options.landmark_spacing / 2, 0);
+  } else {
+    const double radius =
+        options.landmark_spacing / (2 * std::sin(M_PI / num_clusters));
+    for (int c = 0; c < num_clusters; ++c) {
+      const double angle = 2 * M_PI * c / num_clusters;
+      towers[c] = radius * Eigen::Vector2d(std::cos(angle), std::sin(angle));
+    }
+  }
+
+  std::vector<std::pair<int, int>> links;
+  for (int c = 0; c + 1 < num_clusters; ++c) {
+    links.emplace_back(c, c + 1);
+  }
+  if (options.close_loop && num_clusters >= 3) {
+    links.emplace_back(num_clusters - 1, 0);
+  }
+  if (options.num_images_per_link == 0) {
+    links.clear();
+  }
+
+  std::vector<ScenePoint> points;
+  for (int c = 0; c < num_clusters; ++c) {
+    const int num_tower_points = (7 * options.num_points_per_cluster) / 10;
+    for (int i = 0; i < options.num_points_per_cluster; ++i) {
+      ScenePoint point;
+      if (i < num_tower_points) {
+        const double angle = random.Uniform(0, 2 * M_PI);
+        const Eigen::Vector3d radial(std::cos(angle), std::sin(angle), 0);
+        point.xyz = Eigen::Vector3d(towers[c].x(), towers[c].y(), 0) +
+                    kTowerRadius * radial +
+                    Eigen::Vector3d(0, 0, random.Uniform(0, kTowerHeight));
+        point.normal = radial;
+      } else {
+        const double angle = random.Uniform(0, 2 * M_PI);
+        const double radius = std::sqrt(random.Uniform(
+            kTowerRadius * kTowerRadius, kGroundRadius * kGroundRadius));
+        point.xyz = Eigen::Vector3d(towers[c].x() + radius * std::cos(angle),
+                                    towers[c].y() + radius * std::sin(angle),
+                                    0);
+        point.normal = Eigen::Vector3d::UnitZ();
+      }
+      points.push_back(point);
+    }
+  }
+  // Each walkway is lined on its left by a wall from tower to tower, tangent
+  // to both, facing the walkway.
+  for (const auto& link : links) {
+    const Eigen::Vector2d from = towers[link.first];
+    const Eigen::Vector2d to = towers[link.second];
+    const Eigen::Vector2d along = (to - from).normalized();
+    const Eigen::Vector2d left(-along.y(), along.x());
+    const double length = (to - from).norm();
+    for (int i = 0; i < options.num_points_per_link; ++i) {
+      const Eigen::Vector2d xy = from + random.Uniform(0, length) * along +
+                                 kTowerRadius * left;
+      ScenePoint point;
+      point.xyz = Eigen::Vector3d(xy.x(), xy.y(), random.Uniform(0, kWallHeight));
+      point.normal = Eigen::Vector3d(-left.x(), -left.y(), 0);
+      points.push_back(point);
+    }
+  }
+
+  //////////////////////////////////////////////////////////////////////////////
+  // Camera poses
+  //////////////////////////////////////////////////////////////////////////////
+
+  const double kDegToRad = M_PI / 180.0;
+  std::vector<ScenePose> poses;
+  for (int c = 0; c < num_clusters; ++c) {
+    for (int i = 0; i < options.num_images_per_cluster; ++i) {
+      const double angle = random.Uniform(0, 2 * M_PI);
+      const double radius = random.Uniform(kRingMinRadius, kRingMaxRadius);
+      const Eigen::Vector3d center(
+          towers[c].x() + radius * std::cos(angle),
+          towers[c].y() + radius * std::sin(angle),
+          kCameraHeight + random.Uniform(-0.3, 0.3));
+      const Eigen::Vector3d target(towers[c].x() + random.Uniform(-2, 2),
+                                   towers[c].y() + random.Uniform(-2, 2),
+                                   random.Uniform(3, 8));
+      poses.push_back(
+          {LookAt(center, target, random.Uniform(-3, 3) * kDegToRad), c});
+    }
+  }
+  // Walkway cameras walk 10 m from the wall, looking at it; over the first
+  // and last quarter of the walk they turn towards the tower behind or ahead,
+  // so that the walk starts and ends with views of the towers.
+  for (const auto& link : links) {
+    const Eigen::Vector2d from = towers[link.first];
+    const Eigen::Vector2d to = towers[link.second];
+    const Eigen::Vector2d along = (to - from).normalized();
+    const Eigen::Vector2d left(-along.y(), along.x());
+    const double start = kRingMinRadius;
+    const double end = (to - from).norm() - kRingMinRadius;
+    for (int i = 0; i < options.num_images_per_link; ++i) {
+      const double t = (i + 0.5) / options.num_images_per_link;
+      const Eigen::Vector2d xy =
+          from + (start + t * (end - start)) * along +
+          (kTowerRadius - kWallDistance + random.Uniform(-1, 1)) * left;
+      const Eigen::Vector3d center(
+          xy.x(), xy.y(), kCameraHeight + random.Uniform(-0.2, 0.2));
+      const double turn = kMaxWalkwayTurnDeg *
+                              (std::max(0.0, (t - 0.75) / 0.25) -
+                               std::max(0.0, 1.0 - t / 0.25)) +
+                          random.Uniform(-10, 10);
+      const Eigen::Vector2d heading = std::cos(turn * kDegToRad) * left +
+                                      std::sin(turn * kDegToRad) * along;
+      const Eigen::Vector3d target =
+          center + Eigen::Vector3d(heading.x(),
+                                   heading.y(),
+                                   std::tan(random.Uniform(0, 10) * kDegToRad));
+      poses.push_back(
+          {LookAt(center, target, random.Uniform(-3, 3) * kDegToRad), -1});
+    }
+  }
+  random.Shuffle(&poses);
+
+  //////////////////////////////////////////////////////////////////////////////
+  // Cameras, images and observations
+  //////////////////////////////////////////////////////////////////////////////
+
+  const Camera camera_template =
+      Camera::CreateFromModelName(kInvalidCameraId,
+                                  "SIMPLE_RADIAL",
+                                  options.focal_length,
+                                  options.image_width,
+                                  options.image_height);
+  auto add_camera = [&]() {
+    Camera camera = camera_template;
+    camera.camera_id = database != nullptr
+                           ? database->WriteCamera(camera)
+                           : static_cast<camera_t>(reconstruction.NumCameras() +
+                                                   1);
+    reconstruction.AddCamera(camera);
+    return camera.camera_id;
+  };
+
+  for (size_t i = 0; i < points.size(); ++i) {
+    reconstruction.AddPoint3D(static_cast<point3D_t>(i + 1), Point3D());
+    reconstruction.Point3D(static_cast<point3D_t>(i + 1)).xyz = points[i].xyz;
+  }
+
+  const double min_cos_surface = std::cos(kMaxSurfaceViewingAngleDeg * kDegToRad);
+  camera_t shared_camera_id = kInvalidCameraId;
+  // Per image: the ids of the observed points, sorted, with their keypoint.
+  std::vector<std::vector<std::pair<point3D_t, point2D_t>>> observations;
+  std::vector<image_t> image_ids;
+  std::vector<point2D_t> num_keypoints;
+
+  for (size_t pose_idx = 0; pose_idx < poses.size(); ++pose_idx) {
+    const ScenePose& pose = poses[pose_idx];
+    camera_t camera_id;
+    if (options.single_camera) {
+      if (shared_camera_id == kInvalidCameraId) {
+        shared_camera_id = add_camera();
+      }
+      camera_id = shared_camera_id;
+    } else {
+      camera_id = add_camera();
+    }
+    const Camera& camera = reconstruction.Camera(camera_id);
+    const Eigen::Vector3d center =
+        pose.cam_from_world.rotation.inverse() * -pose.cam_from_world.translation;
+
+    std::vector<Point2D> points2D;
+    for (size_t i = 0; i < points.size(); ++i) {
+      const ScenePoint& point = points[i];
+      const Eigen::Vector3d ray = center - point.xyz;
+      const double distance = ray.norm();
+      if (distance > options.max_viewing_distance) {
+        continue;
+      }
+      if (!point.normal.isZero() &&
+          point.normal.dot(ray) < min_cos_surface * distance) {
+        continue;
+      }
+      const Eigen::Vector3d point_in_cam = pose.cam_from_world * point.xyz;
+      if (point_in_cam.z() < 0.5) {
+        continue;
+      }
+      const Eigen::Vector2d xy =
+          camera.ImgFromCam(point_in_cam.hnormalized()) +
+          Eigen::Vector2d(random.Gaussian(options.keypoint_noise),
+                          random.Gaussian(options.keypoint_noise));
+      if (xy.x() < 0 || xy.y() < 0 || xy.x() >= camera.width ||
+          xy.y() >= camera.height) {
+        continue;
+      }
+      if (HiddenByTower(center, point.xyz, towers)) {
+        continue;
+      }
+      Point2D point2D;
+      point2D.xy = xy;
+      point2D.point3D_id = static_cast<point3D_t>(i + 1);
+      points2D.push_back(point2D);
+    }
+    for (int i = 0; i < options.num_distractor_keypoints; ++i) {
+      Point2D point2D;
+      point2D.xy = Eigen::Vector2d(random.Uniform(0, camera.width),
+                                   random.Uniform(0, camera.height));
+      points2D.push_back(point2D);
+    }
+    random.Shuffle(&points2D);
+
+    Image image;
+    image.SetName(StringPrintf("image%05d.jpg", static_cast<int>(pose_idx)));
+    image.SetCameraId(camera_id);
+    image.CamFromWorld() = pose.cam_from_world;
+    const image_t image_id = database != nullptr
+                                 ? database->WriteImage(image)
+                                 : static_cast<image_t>(pose_idx + 1);
+    image.SetImageId(image_id);
+    if (database != nullptr) {
+      FeatureKeypoints keypoints;
+      keypoints.reserve(points2D.size());
+      for (const Point2D& point2D : points2D) {
+        keypoints.emplace_back(static_cast<float>(point2D.xy.x()),
+                               static_cast<float>(point2D.xy.y()));
+      }
+      database->WriteKeypoints(image_id, keypoints);
+    }
+
+    std::vector<std::pair<point3D_t, point2D_t>> image_observations;
+    for (point2D_t point2D_idx = 0; point2D_idx < points2D.size();
+         ++point2D_idx) {
+      const point3D_t point3D_id = points2D[point2D_idx].point3D_id;
+      if (point3D_id != kInvalidPoint3DId) {
+        image_observations.emplace_back(point3D_id, point2D_idx);
+        reconstruction.Point3D(point3D_id)
+            .track.AddElement(image_id, point2D_idx);
+      }
+    }
+    std::sort(image_observations.begin(), image_observations.end());
+    observations.push_back(std::move(image_observations));
+    image_ids.push_back(image_id);
+    num_keypoints.push_back(static_cast<point2D_t>(points2D.size()));
+
+    image.SetPoints2D(points2D);
+    reconstruction.AddImage(std::move(image));
+    reconstruction.RegisterImage(image_id);
+    scene->image_cluster.emplace(image_id, pose.cluster);
+  }
+
+  // Points seen by fewer than two cameras are no part of the ground truth.
+  for (const point3D_t point3D_id : reconstruction.Point3DIds()) {
+    if (reconstruction.Point3D(point3D_id).track.Length() < 2) {
+      reconstruction.DeletePoint3D(point3D_id);
+    }
+  }
+
+  //////////////////////////////////////////////////////////////////////////////
+  // Matches and two-view geometries
+  //////////////////////////////////////////////////////////////////////////////
+
+  const size_t num_images = image_ids.size();
+  auto two_view_geometry_of = [&](const size_t idx1, const size_t idx2) {
+    const Image& image1 = reconstruction.Image(image_ids[idx1]);
+    const Image& image2 = reconstruction.Image(image_ids[idx2]);
+    TwoViewGeometry two_view_geometry;
+    two_view_geometry.config = TwoViewGeometry::CALIBRATED;
+    two_view_geometry.cam2_from_cam1 =
+        image2.CamFromWorld() * Inverse(image1.CamFromWorld());
+    two_view_geometry.E =
+        EssentialMatrixFromPose(two_view_geometry.cam2_from_cam1);
+    two_view_geometry.F = FundamentalFromEssentialMatrix(
+        reconstruction.Camera(image2.CameraId()).CalibrationMatrix(),
+        two_view_geometry.E,
+        reconstruction.Camera(image1.CameraId()).CalibrationMatrix());
+    return two_view_geometry;
+  };
+
+  // Random one-to-one matches between keypoints not used by `matches`.
+  auto add_random_matches = [&](const size_t idx1,
+                                const size_t idx2,
+                                const int num_matches,
+                                FeatureMatches* matches) {
+    std::vector<char> used1(num_keypoints[idx1], 0);
+    std::vector<char> used2(num_keypoints[idx2], 0);
+    for (const FeatureMatch& match : *matches) {
+      used1[match.point2D_idx1] = 1;
+      used2[match.point2D_idx2] = 1;
+    }
+    std::vector<point2D_t> free1;
+    std::vector<point2D_t> free2;
+    for (point2D_t i = 0; i < num_keypoints[idx1]; ++i) {
+      if (!used1[i]) free1.push_back(i);
+    }
+    for (point2D_t i = 0; i < num_keypoints[idx2]; ++i) {
+      if (!used2[i]) free2.push_back(i);
+    }
+    random.Shuffle(&free1);
+    random.Shuffle(&free2);
+    const size_t num_added = std::min<size_t>(
+        num_matches, std::min(free1.size(), free2.size()));
+    for (size_t i = 0; i < num_added; ++i) {
+      matches->emplace_back(free1[i], free2[i]);
+    }
+  };
+
+  std::unique_ptr<DatabaseTransaction> transaction;
+  if (database != nullptr) {
+    transaction = std::make_unique<DatabaseTransaction>(database);
+  }
+
+  // Observers of every point, in ascending image index.
+  std::unordered_map<point3D_t, std::vector<std::pair<size_t, point2D_t>>>
+      observers;
+  for (size_t idx = 0; idx < num_images; ++idx) {
+    for (const auto& observation : observations[idx]) {
+      observers[observation.first].emplace_back(idx, observation.second);
+    }
+  }
+
+  // Pairs that share at least one point, as idx1 * num_images + idx2.
+  std::unordered_set<uint64_t> sharing_pairs;
+  std::vector<FeatureMatches> matches_with(num_images);
+  for (size_t idx1 = 0; idx1 < num_images; ++idx1) {
+    std::vector<size_t> partners;
+    for (const auto& observation : observations[idx1]) {
+      for (const auto& observer : observers.at(observation.first)) {
+        if (observer.first <= idx1) {
+          continue;
+        }
+        FeatureMatches& matches = matches_with[observer.first];
+        if (matches.empty()) {
+          partners.push_back(observer.first);
+        }
+        matches.emplace_back(observation.second, observer.second);
+      }
+    }
+    std::sort(partners.begin(), partners.end());
+    for (const size_t idx2 : partners) {
+      FeatureMatches matches = std::move(matches_with[idx2]);
+      matches_with[idx2].clear();
+      sharing_pairs.insert(idx1 * num_images + idx2);
+      if (static_cast<int>(matches.size()) < options.min_num_inliers) {
+        continue;
+      }
+      ++scene->num_verified_pairs;
+      if (database == nullptr) {
+        continue;
+      }
+      add_random_matches(
+          idx1,
+          idx2,
+          static_cast<int>(
+              std::round(options.outlier_match_ratio * matches.size())),
+          &matches);
+      random.Shuffle(&matches);
+      TwoViewGeometry two_view_geometry = two_view_geometry_of(idx1, idx2);
+      two_view_geometry.inlier_matches = matches;
+      database->WriteMatches(image_ids[idx1], image_ids[idx2], matches);
+      database->WriteTwoViewGeometry(
+          image_ids[idx1], image_ids[idx2], two_view_geometry);
+    }
+  }
+
+  // Falsely verified pairs between images that share no point.
+  const int kMaxAttemptsPerPair = 1000;
+  for (int i = 0; i < options.num_false_pairs && num_images >= 2; ++i) {
+    for (int attempt = 0; attempt < kMaxAttemptsPerPair; ++attempt) {
+      size_t idx1 = random.Integer(0, static_cast<int>(num_images) - 1);
+      size_t idx2 = random.Integer(0, static_cast<int>(num_images) - 1);
+      if (idx1 == idx2) {
+        continue;
+      }
+      if (idx1 > idx2) {
+        std::swap(idx1, idx2);
+      }
+      if (!sharing_pairs.insert(idx1 * num_images + idx2).second) {
+        continue;  // Shares points or is already a false pair.
+      }
+      ++scene->num_false_pairs;
+      if (database != nullptr) {
+        FeatureMatches matches;
+        add_random_matches(
+            idx1, idx2, options.false_pair_num_matches, &matches);
+        TwoViewGeometry two_view_geometry = two_view_geometry_of(idx1, idx2);
+        two_view_geometry.inlier_matches = matches;
+        database->WriteMatches(image_ids[idx1], image_ids[idx2], matches);
+        database->WriteTwoViewGeometry(
+            image_ids[idx1], image_ids[idx2], two_view_geometry);
+      }
+      break;
+    }
+  }
+
+  reconstruction.UpdatePoint3DErrors();
+}
+
+void WriteImageClusters(const SyntheticScene& scene, const std::string& path) {
+  std::ofstream file(path);
+  THROW_CHECK_FILE_OPEN(file, path);
+  file << "# IMAGE_NAME CLUSTER (-1: walkway between landmarks)\n";
+  std::vector<image_t> image_ids;
+  for (const auto& image_and_cluster : scene.image_cluster) {
+    image_ids.push_back(image_and_cluster.first);
+  }
+  std::sort(image_ids.begin(), image_ids.end());
+  for (const image_t image_id : image_ids) {
+    file << scene.ground_truth.Image(image_id).Name() << " "
+         << scene.image_cluster.at(image_id) << "\n";
+  }
+}
+
+}  // namespace colmap

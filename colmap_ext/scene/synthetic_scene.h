@@ -1,0 +1,122 @@
+// Generated scenes with community structure and known ground truth.
+//
+// The scene models what community-based SfM is made for: several landmarks,
+// each photographed densely by a cluster of cameras around it, joined by
+// sparser chains of cameras along walkways, optionally closing a loop. All
+// geometry is on a ground plane (z up, metres):
+//   - landmark c is a textured tower (a cylinder of points) on a square of
+//     textured ground, the cluster's cameras stand on a ring around it and
+//     look at it; towers occlude what lies behind them;
+//   - walkway c joins landmark c to landmark c+1; it is lined on its left
+//     by a textured wall from tower to tower, and its cameras walk along it
+//     10 m from the wall, looking at the wall, turning over the first and
+//     last quarter of the walk towards the tower behind or ahead. The
+//     number of walkway cameras sets the chain's density: consecutive
+//     cameras overlap more the more there are.
+// A point is observed by a camera when it lies in front of it within
+// `max_viewing_distance`, projects into the image, faces the camera (tower
+// and ground points have normals; walkway features do not) and is not hidden
+// by a tower.
+//
+// The database holds what COLMAP's feature extractor and matcher would store:
+// one camera (or one per image), images, keypoints (observations with
+// Gaussian noise, plus distractor keypoints without a 3D point, shuffled),
+// raw matches and two-view geometries whose inlier matches are the true
+// correspondences of every pair sharing at least `min_num_inliers` points,
+// with an optional fraction of wrong matches mixed in, and optionally some
+// falsely verified pairs between unrelated images. Images are written in a
+// random order. The same options and seed give the same bytes.
+
+#pragma once
+
+#include "colmap/scene/database.h"
+#include "colmap/scene/reconstruction.h"
+
+#include <string>
+#include <vector>
+
+namespace colmap {
+
+struct SyntheticSceneOptions {
+  // Number of landmarks, each with its own cluster of cameras.
+  int num_clusters = 3;
+
+  // Number of cameras around each landmark.
+  int num_images_per_cluster = 40;
+
+  // Number of cameras on each walkway between consecutive landmarks (the
+  // density of the chains; 0 leaves the clusters unconnected).
+  int num_images_per_link = 12;
+
+  // Whether a walkway also joins the last landmark to the first one.
+  bool close_loop = true;
+
+  // Distance between neighbouring landmarks (metres).
+  double landmark_spacing = 70.0;
+
+  // Number of 3D points on each landmark (tower and ground).
+  int num_points_per_cluster = 3000;
+
+  // Number of 3D points along each walkway.
+  int num_points_per_link = 1200;
+
+  // Image size (pixels) and focal length (pixels) of the SIMPLE_RADIAL
+  // camera(s); the radial distortion is zero.
+  int image_width = 1024;
+  int image_height = 768;
+  double focal_length = 900.0;
+
+  // One camera shared by all images (as `--ImageReader.single_camera 1`) or
+  // one camera per image.
+  bool single_camera = true;
+
+  // Standard deviation of the keypoint noise (pixels).
+  double keypoint_noise = 0.5;
+
+  // Keypoints without a 3D point, per image.
+  int num_distractor_keypoints = 100;
+
+  // Points further away than this are not observed (metres).
+  double max_viewing_distance = 40.0;
+
+  // A pair is written as verified if it shares at least this many points.
+  int min_num_inliers = 15;
+
+  // Fraction of wrong matches added to the inlier matches of every
+  // verified pair (relative to its true matches).
+  double outlier_match_ratio = 0.0;
+
+  // Number of falsely verified pairs between images that share no points,
+  // each with `false_pair_num_matches` random matches.
+  int num_false_pairs = 0;
+  int false_pair_num_matches = 30;
+
+  // Seed of the random number generator.
+  unsigned int seed = 0;
+
+  bool Check() const;
+};
+
+struct SyntheticScene {
+  // The ground truth: cameras, registered images with their keypoints
+  // (points2D; those observing a point carry its id) and 3D points.
+  Reconstruction ground_truth;
+
+  // For every image: the landmark cluster it belongs to (0..num_clusters-1)
+  // or -1 for walkway images.
+  std::unordered_map<image_t, int> image_cluster;
+
+  int num_verified_pairs = 0;
+  int num_false_pairs = 0;
+};
+
+// Generates the scene and, if `database` is given, writes it to the
+// (empty) database.
+void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
+                              SyntheticScene* scene,
+                              Database* database);
+
+// Writes "IMAGE_NAME CLUSTER" lines (cluster -1: walkway) to a text file.
+void WriteImageClusters(const SyntheticScene& scene, const std::string& path);
+
+}  // namespace colmap

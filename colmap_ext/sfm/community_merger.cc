@@ -1,0 +1,204 @@
+#include "colmap_ext/sfm/community_merger.h"
+
+#include "colmap/sfm/incremental_mapper.h"
+#include "colmap/util/logging.h"
+#include "colmap/util/misc.h"
+
+#include <unordered_set>
+
+namespace colmap {
+
+void JoinReconstructions(
+    const std::vector<Reconstruction*>& reconstructions,
+    const std::vector<Sim3d>& world_from_reconstruction,
+    const std::vector<std::unordered_set<image_t>>& owned_image_ids,
+    Reconstruction* merged,
+    std::vector<std::unordered_map<point3D_t, point3D_t>>* point3D_ids) {
+  THROW_CHECK_EQ(reconstructions.size(), world_from_reconstruction.size());
+  THROW_CHECK_EQ(reconstructions.size(), owned_image_ids.size());
+  THROW_CHECK_NOTNULL(merged);
+  THROW_CHECK_NOTNULL(point3D_ids);
+  THROW_CHECK_EQ(merged->NumImages(), 0);
+
+  auto owns = [&](const size_t r, const image_t image_id) {
+    return owned_image_ids[r].count(image_id) > 0 &&
+           reconstructions[r]->ExistsImage(image_id) &&
+           reconstructions[r]->IsImageRegistered(image_id);
+  };
+
+  // Cameras: the parameters of the reconstruction owning the most images
+  // with them.
+  std::unordered_map<camera_t, std::pair<size_t, size_t>> camera_source;
+  for (size_t r = 0; r < reconstructions.size(); ++r) {
+    std::unordered_map<camera_t, size_t> num_images_per_camera;
+    for (const image_t image_id : reconstructions[r]->RegImageIds()) {
+      if (owns(r, image_id)) {
+        ++num_images_per_camera[reconstructions[r]->Image(image_id).CameraId()];
+      }
+    }
+    for (const auto& camera_and_count : num_images_per_camera) {
+      auto& source = camera_source[camera_and_count.first];
+      if (camera_and_count.second > source.second) {
+        source = {r, camera_and_count.second};
+      }
+    }
+  }
+  for (const auto& camera_and_source : camera_source) {
+    merged->AddCamera(reconstructions[camera_and_source.second.first]->Camera(
+        camera_and_source.first));
+  }
+
+  point3D_ids->assign(reconstructions.size(), {});
+  for (size_t r = 0; r < reconstructions.size(); ++r) {
+    Reconstruction& reconstruction = *reconstructions[r];
+    reconstruction.Transform(world_from_reconstruction[r]);
+
+    for (const image_t image_id : reconstruction.RegImageIds()) {
+      if (!owns(r, image_id)) {
+        continue;
+      }
+      const Image& image = reconstruction.Image(image_id);
+      THROW_CHECK(!merged->ExistsImage(image_id))
+          << "Image " << image.Name() << " is owned by two reconstructions.";
+      Image merged_image;
+      merged_image.SetImageId(image_id);
+      merged_image.SetName(image.Name());
+      merged_image.SetCameraId(image.CameraId());
+      merged_image.CamFromWorld() = image.CamFromWorld();
+      std::vector<Eigen::Vector2d> points2D;
+      points2D.reserve(image.NumPoints2D());
+      for (const Point2D& point2D : image.Points2D()) {
+        points2D.push_back(point2D.xy);
+      }
+      merged_image.SetPoints2D(points2D);
+      merged->AddImage(std::move(merged_image));
+      merged->RegisterImage(image_id);
+    }
+  }
+
+  for (size_t r = 0; r < reconstructions.size(); ++r) {
+    auto& ids = (*point3D_ids)[r];
+    ids.reserve(reconstructions[r]->NumPoints3D());
+    for (const auto& point3D : reconstructions[r]->Points3D()) {
+      Track track;
+      for (const TrackElement& track_el : point3D.second.track.Elements()) {
+        if (owns(r, track_el.image_id)) {
+          track.AddElement(track_el);
+        }
+      }
+      if (track.Length() == 0) {
+        continue;
+      }
+      ids.emplace(point3D.first,
+                  merged->AddPoint3D(
+                      point3D.second.xyz, std::move(track), point3D.second.color));
+    }
+  }
+}
+
+size_t MergeCorrespondingPoints(
+    const std::vector<std::pair<point3D_t, point3D_t>>& point3D_pairs,
+    Reconstruction* reconstruction) {
+  std::unordered_set<point3D_t> merged_ids;
+  size_t num_merged = 0;
+  for (const auto& pair : point3D_pairs) {
+    if (merged_ids.count(pair.first) > 0 || merged_ids.count(pair.second) > 0 ||
+        !reconstruction->ExistsPoint3D(pair.first) ||
+        !reconstruction->ExistsPoint3D(pair.second)) {
+      continue;
+    }
+    std::unordered_set<image_t> images1;
+    for (const auto& track_el :
+         reconstruction->Point3D(pair.first).track.Elements()) {
+      images1.insert(track_el.image_id);
+    }
+    bool share_image = false;
+    for (const auto& track_el :
+         reconstruction->Point3D(pair.second).track.Elements()) {
+      if (images1.count(track_el.image_id) > 0) {
+        share_image = true;
+        break;
+      }
+    }
+    if (share_image) {
+      continue;
+    }
+    merged_ids.insert(pair.first);
+    merged_ids.insert(pair.second);
+    reconstruction->MergePoints3D(pair.first, pair.second);
+    ++num_merged;
+  }
+  for (const point3D_t point3D_id : reconstruction->Point3DIds()) {
+    if (reconstruction->Point3D(point3D_id).track.Length() < 2) {
+      reconstruction->DeletePoint3D(point3D_id);
+    }
+  }
+  return num_merged;
+}
+
+MergedModelRefinementSummary RefineMergedModel(
+    const MergedModelRefinementOptions& options,
+    const IncrementalMapperOptions& mapper_options,
+    std::shared_ptr<const DatabaseCache> database_cache,
+    std::shared_ptr<Reconstruction> reconstruction) {
+  THROW_CHECK(mapper_options.Check());
+  MergedModelRefinementSummary summary;
+  reconstruction->UpdatePoint3DErrors();
+  summary.initial_mean_reprojection_error =
+      reconstruction->ComputeMeanReprojectionError();
+
+  const IncrementalMapper::Options incremental = mapper_options.Mapper();
+  const IncrementalTriangulator::Options triangulation =
+      mapper_options.Triangulation();
+
+  IncrementalMapper mapper(std::move(database_cache));
+  mapper.BeginReconstruction(reconstruction);
+
+  if (options.robust_first_adjustment) {
+    LOG(INFO) << "Robust bundle adjustment of the merged model";
+    BundleAdjustmentOptions ba_options =
+        mapper_options.GlobalBundleAdjustment();
+    ba_options.loss_function_type =
+        BundleAdjustmentOptions::LossFunctionType::SOFT_L1;
+    ba_options.loss_function_scale = 1.0;
+    mapper.AdjustGlobalBundle(incremental, ba_options);
+    mapper.FilterPoints(incremental);
+  }
+
+  if (options.register_remaining_images) {
+    const size_t num_reg_images_before = reconstruction->NumRegImages();
+    while (true) {
+      bool registered = false;
+      for (const image_t image_id : mapper.FindNextImages(incremental)) {
+        if (mapper.RegisterNextImage(incremental, image_id)) {
+          mapper.TriangulateImage(triangulation, image_id);
+          registered = true;
+        }
+      }
+      if (!registered) {
+        break;
+      }
+    }
+    summary.num_newly_registered_images = static_cast<int>(
+        reconstruction->NumRegImages() - num_reg_images_before);
+    LOG(INFO) << "Registered " << summary.num_newly_registered_images
+              << " images that no community had registered";
+  }
+
+  LOG(INFO) << "Retriangulation and global bundle adjustment";
+  mapper.IterativeGlobalRefinement(mapper_options.ba_global_max_refinements,
+                                   mapper_options.ba_global_max_refinement_change,
+                                   incremental,
+                                   mapper_options.GlobalBundleAdjustment(),
+                                   triangulation,
+                                   /*normalize_reconstruction=*/true);
+  summary.num_filtered_images =
+      static_cast<int>(mapper.FilterImages(incremental));
+  mapper.EndReconstruction(/*discard=*/false);
+
+  summary.final_mean_reprojection_error =
+      reconstruction->ComputeMeanReprojectionError();
+  return summary;
+}
+
+}  // namespace colmap

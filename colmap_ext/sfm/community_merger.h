@@ -1,0 +1,84 @@
+// Merging community reconstructions into one model.
+//
+// CSfM (Cui et al., ICIP 2017), section 3.4: given the similarity
+// world_from_community of every community (similarity_averaging.h), its
+// cameras and points are transformed into the global frame,
+//     X_g = s_i R_i X + T_i,  R_g = R R_i^T,  C_g = s_i R_i C + T_i,
+// and joined; a final bundle adjustment refines all cameras and points.
+//
+// Here the join keeps every community's tracks, then merges the 3D points
+// that the pairwise similarities found to correspond (their inliers), so
+// that the bundle adjustment couples the communities. The refinement runs
+// COLMAP's IncrementalMapper on the full database: it registers images
+// their communities left out, where the merged model now sees enough of
+// their points, completes and merges tracks over the whole correspondence
+// graph, re-triangulates, and alternates global bundle adjustment (Ceres,
+// SuiteSparse) with outlier filtering, as the incremental mapper's own
+// global refinement does.
+
+#pragma once
+
+#include "colmap/controllers/incremental_mapper.h"
+#include "colmap/geometry/sim3.h"
+#include "colmap/scene/database_cache.h"
+#include "colmap/scene/reconstruction.h"
+
+#include <memory>
+#include <unordered_map>
+#include <unordered_set>
+#include <vector>
+
+namespace colmap {
+
+// Transforms every reconstruction into the global frame and joins their
+// cameras, images and points into `merged` (which must be empty). Each image
+// is taken from the one reconstruction that owns it (`owned_image_ids`; an
+// image registered by several, as on community borders, is owned by one);
+// the other reconstructions' observations in it are dropped, and points left
+// without observations too. A camera used by several reconstructions takes
+// the parameters of the one owning the most images with it. `point3D_ids`
+// receives, per reconstruction, the new id of each of its points that was
+// kept. The reconstructions are transformed in place.
+void JoinReconstructions(
+    const std::vector<Reconstruction*>& reconstructions,
+    const std::vector<Sim3d>& world_from_reconstruction,
+    const std::vector<std::unordered_set<image_t>>& owned_image_ids,
+    Reconstruction* merged,
+    std::vector<std::unordered_map<point3D_t, point3D_t>>* point3D_ids);
+
+// Merges pairs of corresponding 3D points (ids of `reconstruction`) into
+// single tracks. A pair is skipped if one of its points was merged already
+// or if both are observed in a common image. Afterwards, points observed
+// fewer than twice are deleted. Returns the number of merges.
+size_t MergeCorrespondingPoints(
+    const std::vector<std::pair<point3D_t, point3D_t>>& point3D_pairs,
+    Reconstruction* reconstruction);
+
+struct MergedModelRefinementOptions {
+  // Try to register the images that no community registered.
+  bool register_remaining_images = true;
+
+  // Run a first global bundle adjustment with a robust (soft L1) loss, before
+  // the merged tracks are filtered, so that wrongly merged points do not
+  // pull the cameras.
+  bool robust_first_adjustment = true;
+};
+
+struct MergedModelRefinementSummary {
+  int num_newly_registered_images = 0;
+  int num_filtered_images = 0;
+  double initial_mean_reprojection_error = 0.0;
+  double final_mean_reprojection_error = 0.0;
+};
+
+// Completes, merges and refines the joined model with COLMAP's incremental
+// mapper machinery on the full database (see the top of this file). The
+// mapper, triangulation and global bundle adjustment options come from
+// `mapper_options` (the user's --Mapper.* flags).
+MergedModelRefinementSummary RefineMergedModel(
+    const MergedModelRefinementOptions& options,
+    const IncrementalMapperOptions& mapper_options,
+    std::shared_ptr<const DatabaseCache> database_cache,
+    std::shared_ptr<Reconstruction> reconstruction);
+
+}  // namespace colmap

@@ -1,0 +1,126 @@
+#include "colmap_ext/sfm/pairwise_similarity.h"
+
+#include "colmap/estimators/similarity_transform.h"
+#include "colmap/optim/loransac.h"
+#include "colmap/util/logging.h"
+
+#include <algorithm>
+#include <set>
+
+namespace colmap {
+namespace {
+
+// Median distance of the points to their coordinate-wise median.
+double RobustSpread(const std::vector<Eigen::Vector3d>& points) {
+  THROW_CHECK(!points.empty());
+  Eigen::Vector3d median;
+  std::vector<double> values(points.size());
+  for (int d = 0; d < 3; ++d) {
+    for (size_t i = 0; i < points.size(); ++i) {
+      values[i] = points[i](d);
+    }
+    std::nth_element(
+        values.begin(), values.begin() + values.size() / 2, values.end());
+    median(d) = values[values.size() / 2];
+  }
+  for (size_t i = 0; i < points.size(); ++i) {
+    values[i] = (points[i] - median).norm();
+  }
+  std::nth_element(
+      values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+}  // namespace
+
+PointCorrespondences FindPointCorrespondences(
+    const Reconstruction& reconstruction1,
+    const Reconstruction& reconstruction2,
+    const std::vector<CrossPairMatches>& cross_pairs) {
+  std::set<std::pair<point3D_t, point3D_t>> point3D_pairs;
+  for (const CrossPairMatches& cross_pair : cross_pairs) {
+    if (!reconstruction1.ExistsImage(cross_pair.image_id1) ||
+        !reconstruction1.IsImageRegistered(cross_pair.image_id1) ||
+        !reconstruction2.ExistsImage(cross_pair.image_id2) ||
+        !reconstruction2.IsImageRegistered(cross_pair.image_id2)) {
+      continue;
+    }
+    const Image& image1 = reconstruction1.Image(cross_pair.image_id1);
+    const Image& image2 = reconstruction2.Image(cross_pair.image_id2);
+    for (const FeatureMatch& match : cross_pair.matches) {
+      if (match.point2D_idx1 >= image1.NumPoints2D() ||
+          match.point2D_idx2 >= image2.NumPoints2D()) {
+        continue;
+      }
+      const Point2D& point2D1 = image1.Point2D(match.point2D_idx1);
+      const Point2D& point2D2 = image2.Point2D(match.point2D_idx2);
+      if (point2D1.HasPoint3D() && point2D2.HasPoint3D()) {
+        point3D_pairs.emplace(point2D1.point3D_id, point2D2.point3D_id);
+      }
+    }
+  }
+
+  PointCorrespondences correspondences;
+  for (const auto& point3D_pair : point3D_pairs) {
+    correspondences.point3D_ids1.push_back(point3D_pair.first);
+    correspondences.point3D_ids2.push_back(point3D_pair.second);
+    correspondences.points1.push_back(
+        reconstruction1.Point3D(point3D_pair.first).xyz);
+    correspondences.points2.push_back(
+        reconstruction2.Point3D(point3D_pair.second).xyz);
+  }
+  return correspondences;
+}
+
+bool PairwiseSimilarityOptions::Check() const {
+  CHECK_OPTION_GT(max_relative_error, 0);
+  CHECK_OPTION_GE(min_inlier_ratio, 0);
+  CHECK_OPTION_LE(min_inlier_ratio, 1);
+  CHECK_OPTION_GE(min_num_inliers, 3);
+  return true;
+}
+
+PairwiseSimilarity EstimatePairwiseSimilarity(
+    const PointCorrespondences& correspondences,
+    const PairwiseSimilarityOptions& options) {
+  THROW_CHECK(options.Check());
+  PairwiseSimilarity result;
+  result.num_correspondences = static_cast<int>(correspondences.Size());
+  if (correspondences.Size() <
+      static_cast<size_t>(std::max(3, options.min_num_inliers))) {
+    return result;
+  }
+
+  const double spread = RobustSpread(correspondences.points2);
+  if (spread <= 0) {
+    return result;
+  }
+
+  RANSACOptions ransac_options;
+  ransac_options.max_error = options.max_relative_error * spread;
+  ransac_options.min_inlier_ratio = options.min_inlier_ratio;
+  ransac_options.max_num_trials = 10000;
+  LORANSAC<SimilarityTransformEstimator<3, true>,
+           SimilarityTransformEstimator<3, true>>
+      ransac(ransac_options);
+  const auto report =
+      ransac.Estimate(correspondences.points1, correspondences.points2);
+  if (!report.success) {
+    return result;
+  }
+
+  result.num_inliers = static_cast<int>(report.support.num_inliers);
+  result.second_from_first = Sim3d::FromMatrix(report.model);
+  for (size_t i = 0; i < correspondences.Size(); ++i) {
+    if (report.inlier_mask[i]) {
+      result.inlier_points1.push_back(correspondences.points1[i]);
+      result.inlier_points2.push_back(correspondences.points2[i]);
+      result.inlier_point3D_ids.emplace_back(correspondences.point3D_ids1[i],
+                                             correspondences.point3D_ids2[i]);
+    }
+  }
+  result.success = result.num_inliers >= options.min_num_inliers;
+  return result;
+}
+
+}  // namespace colmap

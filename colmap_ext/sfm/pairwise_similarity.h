@@ -1,0 +1,85 @@
+// Relative similarity transform between two community reconstructions.
+//
+// CSfM (Cui et al., ICIP 2017), section 3: "given the co-visible 3D points
+// between a pair of connected communities, RANSAC is used to estimate a 3D
+// similarity transformation (Horn 1987), including relative scale-ratio,
+// rotation and translation."
+//
+// Co-visible points come from the view graph's cross edges: a verified match
+// between image i of community 1 and image j of community 2, whose keypoints
+// observe 3D points X1 and X2 in their own reconstructions, makes the
+// correspondence (X1, X2); each pair of 3D points counts once, however many
+// matches link it. The transform X2 = s R X1 + t is estimated with COLMAP's
+// SimilarityTransformEstimator inside LO-RANSAC. Reconstructions have
+// arbitrary scale, so the inlier threshold is relative: a fraction of the
+// spread (median distance to the median) of the correspondences in the
+// second reconstruction.
+
+#pragma once
+
+#include "colmap/feature/types.h"
+#include "colmap/geometry/sim3.h"
+#include "colmap/scene/reconstruction.h"
+#include "colmap/util/eigen_alignment.h"
+#include "colmap/util/types.h"
+
+#include <vector>
+
+namespace colmap {
+
+// The verified matches of one view-graph edge between two communities.
+struct CrossPairMatches {
+  // Image of the first and of the second community.
+  image_t image_id1 = kInvalidImageId;
+  image_t image_id2 = kInvalidImageId;
+  // point2D_idx1 refers to image_id1, point2D_idx2 to image_id2.
+  FeatureMatches matches;
+};
+
+struct PointCorrespondences {
+  std::vector<point3D_t> point3D_ids1;
+  std::vector<point3D_t> point3D_ids2;
+  std::vector<Eigen::Vector3d> points1;
+  std::vector<Eigen::Vector3d> points2;
+
+  size_t Size() const { return points1.size(); }
+};
+
+// Collects the 3D-3D correspondences between the two reconstructions that
+// the matches of the cross pairs reveal.
+PointCorrespondences FindPointCorrespondences(
+    const Reconstruction& reconstruction1,
+    const Reconstruction& reconstruction2,
+    const std::vector<CrossPairMatches>& cross_pairs);
+
+struct PairwiseSimilarityOptions {
+  // Inlier threshold as a fraction of the correspondences' spread.
+  double max_relative_error = 0.05;
+
+  // An a priori lower bound of the inlier ratio, which bounds the number of
+  // RANSAC trials.
+  double min_inlier_ratio = 0.1;
+
+  // Minimum number of inlier correspondences for a usable transform.
+  int min_num_inliers = 20;
+
+  bool Check() const;
+};
+
+struct PairwiseSimilarity {
+  bool success = false;
+  // X2 = s R X1 + t.
+  Sim3d second_from_first;
+  int num_correspondences = 0;
+  int num_inliers = 0;
+  // The inlier correspondences (translation averaging re-uses them).
+  std::vector<Eigen::Vector3d> inlier_points1;
+  std::vector<Eigen::Vector3d> inlier_points2;
+  std::vector<std::pair<point3D_t, point3D_t>> inlier_point3D_ids;
+};
+
+PairwiseSimilarity EstimatePairwiseSimilarity(
+    const PointCorrespondences& correspondences,
+    const PairwiseSimilarityOptions& options);
+
+}  // namespace colmap

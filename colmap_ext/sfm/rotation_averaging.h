@@ -1,0 +1,66 @@
+// Robust rotation averaging: L1RA followed by IRLS.
+//
+// Chatterjee and Govindu, "Efficient and Robust Large-Scale Rotation
+// Averaging", ICCV 2013. Given relative rotations R_ij ~ R_j R_i^T on the
+// edges of a connected graph, find absolute rotations R_i (R_ref fixed) that
+// minimise the robust sum over edges of d(R_ij, R_j R_i^T).
+//
+//   1. Initialise R_i by chaining the relative rotations along a maximum
+//      spanning tree (edge weights: confidence, e.g. inlier counts).
+//   2. L1RA: with dR_ij = R_j^T R_ij R_i and w_ij = log(dR_ij) (angle-axis),
+//      solve  min_x sum_ij |x_j - x_i - w_ij|_1  (x_ref = 0; per axis, by
+//      COLMAP's ADMM least absolute deviations solver) and update
+//      R_k <- R_k exp(x_k), until the update is negligible.
+//   3. IRLS: the same linearisation, solved in weighted least squares with
+//      Geman-McClure weights  phi(r) = sigma^2 / (r^2 + sigma^2)^2  on the
+//      residual angle r of each edge, refining what L1 found.
+
+#pragma once
+
+#include "colmap/util/eigen_alignment.h"
+
+#include <vector>
+
+#include <Eigen/Geometry>
+
+namespace colmap {
+
+struct RelativeRotation {
+  int node1 = -1;
+  int node2 = -1;
+  // node2_from_node1: R_node2 ~ rotation * R_node1.
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+  // Confidence for the spanning tree (larger is better).
+  double weight = 1.0;
+};
+
+struct RotationAveragingOptions {
+  // Maximum number of L1RA iterations and the update size (radians, largest
+  // over all nodes) below which they stop.
+  int max_num_l1_iterations = 30;
+  double l1_step_tolerance = 1e-9;
+
+  // Maximum number of IRLS iterations, their stop criterion, and the scale
+  // sigma of the Geman-McClure weights (degrees).
+  int max_num_irls_iterations = 50;
+  double irls_step_tolerance = 1e-12;
+  double irls_sigma_deg = 5.0;
+
+  bool Check() const;
+};
+
+// Estimates R_0..R_{num_nodes-1} with R_reference = Identity. The graph must
+// be connected. Returns false if it is not or if a solver fails.
+bool AverageRotations(
+    int num_nodes,
+    const std::vector<RelativeRotation>& relative_rotations,
+    int reference_node,
+    const RotationAveragingOptions& options,
+    std::vector<Eigen::Quaterniond>* rotations);
+
+// Angle (degrees) between R_ij and R_j R_i^T.
+double RelativeRotationResidualDeg(
+    const RelativeRotation& relative_rotation,
+    const std::vector<Eigen::Quaterniond>& rotations);
+
+}  // namespace colmap

@@ -1,0 +1,408 @@
+#include "colmap_ext/sfm/similarity_averaging.h"
+
+#include "colmap/math/math.h"
+#include "colmap/optim/least_absolute_deviations.h"
+#include "colmap/util/logging.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+
+namespace colmap {
+namespace {
+
+// Solves x_i - x_j = b_e (dim rows per edge e = (i, j)) over the nodes of
+// one connected part, in L1 or least squares, with x_reference = 0. `x` has
+// dim entries per node of the part, in the order of `nodes`.
+bool SolveDifferenceSystem(const std::vector<int>& nodes,
+                           const std::vector<std::pair<int, int>>& edges,
+                           const int dim,
+                           const int reference,
+                           const Eigen::VectorXd& b,
+                           const bool least_squares,
+                           Eigen::VectorXd* x) {
+  std::map<int, int> column;  // node -> variable block, reference excluded
+  for (const int node : nodes) {
+    if (node != reference) {
+      const int index = static_cast<int>(column.size());
+      column.emplace(node, index);
+    }
+  }
+  x->setZero(dim * static_cast<int>(nodes.size()));
+  if (column.empty()) {
+    return true;
+  }
+
+  std::vector<Eigen::Triplet<double>> triplets;
+  for (size_t e = 0; e < edges.size(); ++e) {
+    for (int d = 0; d < dim; ++d) {
+      if (edges[e].first != reference) {
+        triplets.emplace_back(
+            dim * e + d, dim * column.at(edges[e].first) + d, 1.0);
+      }
+      if (edges[e].second != reference) {
+        triplets.emplace_back(
+            dim * e + d, dim * column.at(edges[e].second) + d, -1.0);
+      }
+    }
+  }
+  Eigen::SparseMatrix<double> A(dim * edges.size(), dim * column.size());
+  A.setFromTriplets(triplets.begin(), triplets.end());
+
+  Eigen::VectorXd solution;
+  if (least_squares) {
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(
+        A.transpose() * A);
+    if (solver.info() != Eigen::Success) {
+      return false;
+    }
+    solution = solver.solve(A.transpose() * b);
+  } else {
+    LeastAbsoluteDeviationsOptions l1_options;
+    l1_options.max_num_iterations = 20000;
+    l1_options.absolute_tolerance = 1e-12;
+    l1_options.relative_tolerance = 1e-10;
+    solution = Eigen::VectorXd::Zero(A.cols());
+    if (!SolveLeastAbsoluteDeviations(l1_options, A, b, &solution)) {
+      return false;
+    }
+  }
+
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    if (nodes[k] != reference) {
+      x->segment(dim * k, dim) =
+          solution.segment(dim * column.at(nodes[k]), dim);
+    }
+  }
+  return true;
+}
+
+// Median distance of the points to their coordinate-wise median.
+double Spread(const std::vector<Eigen::Vector3d>& points) {
+  if (points.empty()) {
+    return 0.0;
+  }
+  std::vector<double> values(points.size());
+  Eigen::Vector3d median;
+  for (int d = 0; d < 3; ++d) {
+    for (size_t k = 0; k < points.size(); ++k) {
+      values[k] = points[k](d);
+    }
+    std::nth_element(
+        values.begin(), values.begin() + values.size() / 2, values.end());
+    median(d) = values[values.size() / 2];
+  }
+  for (size_t k = 0; k < points.size(); ++k) {
+    values[k] = (points[k] - median).norm();
+  }
+  std::nth_element(
+      values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+// The translation measurement T_i - T_j of an edge, given scales and
+// rotations, and the spread of its correspondences in the world frame.
+void TranslationMeasurement(const RelativeSimilarity& edge,
+                            const Sim3d& world_from_first,
+                            const Sim3d& world_from_second,
+                            Eigen::Vector3d* measurement,
+                            double* spread) {
+  if (edge.points1.empty()) {
+    *measurement = world_from_second.scale *
+                   (world_from_second.rotation *
+                    edge.second_from_first.translation);
+    *spread = measurement->norm();
+    return;
+  }
+  std::vector<Eigen::Vector3d> world_points2(edge.points2.size());
+  std::vector<double> differences[3];
+  for (size_t k = 0; k < edge.points1.size(); ++k) {
+    world_points2[k] = world_from_second.scale *
+                       (world_from_second.rotation * edge.points2[k]);
+    const Eigen::Vector3d difference =
+        world_points2[k] - world_from_first.scale *
+                               (world_from_first.rotation * edge.points1[k]);
+    for (int d = 0; d < 3; ++d) {
+      differences[d].push_back(difference(d));
+    }
+  }
+  for (int d = 0; d < 3; ++d) {
+    std::nth_element(differences[d].begin(),
+                     differences[d].begin() + differences[d].size() / 2,
+                     differences[d].end());
+    (*measurement)(d) = differences[d][differences[d].size() / 2];
+  }
+  *spread = Spread(world_points2);
+}
+
+// Averages the similarities of one connected part in place.
+bool AveragePart(const std::vector<int>& nodes,
+                 const std::vector<const RelativeSimilarity*>& edges,
+                 const int reference,
+                 const SimilarityAveragingOptions& options,
+                 std::vector<Sim3d>* world_from_community) {
+  std::map<int, int> local;
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    local.emplace(nodes[k], static_cast<int>(k));
+  }
+  std::vector<std::pair<int, int>> edge_nodes;
+  for (const RelativeSimilarity* edge : edges) {
+    edge_nodes.emplace_back(edge->community1, edge->community2);
+  }
+
+  // 1. Scale: log s_i - log s_j = log s_ij.
+  Eigen::VectorXd log_scales;
+  {
+    Eigen::VectorXd b(edges.size());
+    for (size_t e = 0; e < edges.size(); ++e) {
+      b(e) = std::log(edges[e]->second_from_first.scale);
+    }
+    if (!SolveDifferenceSystem(nodes,
+                               edge_nodes,
+                               /*dim=*/1,
+                               reference,
+                               b,
+                               options.least_squares,
+                               &log_scales)) {
+      return false;
+    }
+  }
+
+  // 2. Rotation: R_i = R_j R_ij, i.e. R_j^T = R_ij R_i^T, averaged on the
+  // transposes (community_from_world rotations).
+  std::vector<Eigen::Quaterniond> community_from_world;
+  {
+    std::vector<RelativeRotation> relative_rotations;
+    for (const RelativeSimilarity* edge : edges) {
+      RelativeRotation relative_rotation;
+      relative_rotation.node1 = local.at(edge->community1);
+      relative_rotation.node2 = local.at(edge->community2);
+      relative_rotation.rotation = edge->second_from_first.rotation;
+      relative_rotation.weight = edge->weight;
+      relative_rotations.push_back(relative_rotation);
+    }
+    if (!AverageRotations(static_cast<int>(nodes.size()),
+                          relative_rotations,
+                          local.at(reference),
+                          options.rotation,
+                          &community_from_world)) {
+      return false;
+    }
+  }
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    Sim3d& transform = (*world_from_community)[nodes[k]];
+    transform.scale = std::exp(log_scales(k));
+    transform.rotation = community_from_world[k].inverse();
+    transform.translation.setZero();
+  }
+
+  // 3. Translation: T_i - T_j = T_ij, re-estimated from the correspondences.
+  Eigen::VectorXd b(3 * edges.size());
+  for (size_t e = 0; e < edges.size(); ++e) {
+    Eigen::Vector3d measurement;
+    double spread;
+    TranslationMeasurement(*edges[e],
+                           (*world_from_community)[edges[e]->community1],
+                           (*world_from_community)[edges[e]->community2],
+                           &measurement,
+                           &spread);
+    b.segment<3>(3 * e) = measurement;
+  }
+  Eigen::VectorXd translations;
+  if (!SolveDifferenceSystem(nodes,
+                             edge_nodes,
+                             /*dim=*/3,
+                             reference,
+                             b,
+                             options.least_squares,
+                             &translations)) {
+    return false;
+  }
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    (*world_from_community)[nodes[k]].translation =
+        translations.segment<3>(3 * k);
+  }
+  return true;
+}
+
+SimilarityAveragingResult::EdgeReport ComputeResiduals(
+    const RelativeSimilarity& edge,
+    const std::vector<Sim3d>& world_from_community) {
+  const Sim3d& world_from_first = world_from_community[edge.community1];
+  const Sim3d& world_from_second = world_from_community[edge.community2];
+  SimilarityAveragingResult::EdgeReport report;
+  // Predicted R_ij = R_j^T R_i, s_ij = s_i / s_j.
+  const Eigen::Quaterniond predicted_rotation =
+      world_from_second.rotation.inverse() * world_from_first.rotation;
+  report.rotation_residual_deg = RadToDeg(
+      predicted_rotation.angularDistance(edge.second_from_first.rotation));
+  report.log_scale_residual =
+      std::abs(std::log(world_from_first.scale) -
+               std::log(world_from_second.scale) -
+               std::log(edge.second_from_first.scale));
+  Eigen::Vector3d measurement;
+  double spread;
+  TranslationMeasurement(
+      edge, world_from_first, world_from_second, &measurement, &spread);
+  const double residual =
+      (world_from_first.translation - world_from_second.translation -
+       measurement)
+          .norm();
+  report.relative_translation_residual =
+      spread > 0 ? residual / spread : (residual > 0 ? 1e9 : 0.0);
+  return report;
+}
+
+}  // namespace
+
+bool SimilarityAveragingOptions::Check() const {
+  CHECK_OPTION(rotation.Check());
+  CHECK_OPTION_GT(max_rotation_residual_deg, 0);
+  CHECK_OPTION_GT(max_log_scale_residual, 0);
+  CHECK_OPTION_GT(max_relative_translation_residual, 0);
+  CHECK_OPTION_GE(max_num_rejection_rounds, 0);
+  return true;
+}
+
+int SimilarityAveragingResult::NumParts() const {
+  return part_of_community.empty()
+             ? 0
+             : 1 + *std::max_element(part_of_community.begin(),
+                                     part_of_community.end());
+}
+
+SimilarityAveragingResult AverageSimilarities(
+    const std::vector<int>& community_sizes,
+    const std::vector<RelativeSimilarity>& relative_similarities,
+    const SimilarityAveragingOptions& options) {
+  THROW_CHECK(options.Check());
+  const int num_communities = static_cast<int>(community_sizes.size());
+  for (const RelativeSimilarity& edge : relative_similarities) {
+    THROW_CHECK_GE(edge.community1, 0);
+    THROW_CHECK_LT(edge.community1, num_communities);
+    THROW_CHECK_GE(edge.community2, 0);
+    THROW_CHECK_LT(edge.community2, num_communities);
+    THROW_CHECK_NE(edge.community1, edge.community2);
+    THROW_CHECK_GT(edge.second_from_first.scale, 0);
+    THROW_CHECK_EQ(edge.points1.size(), edge.points2.size());
+  }
+
+  SimilarityAveragingResult result;
+  result.world_from_community.assign(num_communities, Sim3d());
+  result.edges.resize(relative_similarities.size());
+  for (auto& edge_report : result.edges) {
+    edge_report.kept = true;
+  }
+
+  std::vector<std::vector<int>> parts;
+  for (int round = 0;; ++round) {
+    // Connected parts over the kept edges (union-find).
+    std::vector<int> parent(num_communities);
+    std::iota(parent.begin(), parent.end(), 0);
+    auto find = [&parent](int node) {
+      while (parent[node] != node) {
+        parent[node] = parent[parent[node]];
+        node = parent[node];
+      }
+      return node;
+    };
+    for (size_t e = 0; e < relative_similarities.size(); ++e) {
+      if (result.edges[e].kept) {
+        parent[find(relative_similarities[e].community1)] =
+            find(relative_similarities[e].community2);
+      }
+    }
+    // Parts in the order of their smallest community.
+    std::map<int, size_t> part_of_root;
+    parts.clear();
+    for (int node = 0; node < num_communities; ++node) {
+      const auto it =
+          part_of_root.emplace(find(node), parts.size()).first;
+      if (it->second == parts.size()) {
+        parts.emplace_back();
+      }
+      parts[it->second].push_back(node);
+    }
+
+    for (std::vector<int>& nodes : parts) {
+      int reference = nodes.front();
+      for (const int node : nodes) {
+        if (community_sizes[node] > community_sizes[reference]) {
+          reference = node;
+        }
+      }
+      std::vector<const RelativeSimilarity*> edges;
+      std::vector<size_t> edge_indices;
+      for (size_t e = 0; e < relative_similarities.size(); ++e) {
+        if (result.edges[e].kept &&
+            find(relative_similarities[e].community1) == find(reference)) {
+          edges.push_back(&relative_similarities[e]);
+          edge_indices.push_back(e);
+        }
+      }
+      if (!AveragePart(nodes,
+                       edges,
+                       reference,
+                       options,
+                       &result.world_from_community)) {
+        LOG(WARNING) << "Similarity averaging failed for a part of "
+                     << nodes.size()
+                     << " communities; they are kept apart.";
+        for (const size_t e : edge_indices) {
+          result.edges[e].kept = false;
+        }
+        for (const int node : nodes) {
+          result.world_from_community[node] = Sim3d();
+        }
+      }
+    }
+
+    // Residuals of the kept edges; reject the large ones.
+    bool rejected = false;
+    for (size_t e = 0; e < relative_similarities.size(); ++e) {
+      if (!result.edges[e].kept) {
+        continue;
+      }
+      result.edges[e] = ComputeResiduals(relative_similarities[e],
+                                         result.world_from_community);
+      result.edges[e].kept = true;
+      if (round < options.max_num_rejection_rounds &&
+          (result.edges[e].rotation_residual_deg >
+               options.max_rotation_residual_deg ||
+           result.edges[e].log_scale_residual >
+               options.max_log_scale_residual ||
+           result.edges[e].relative_translation_residual >
+               options.max_relative_translation_residual)) {
+        result.edges[e].kept = false;
+        rejected = true;
+      }
+    }
+    if (!rejected) {
+      break;
+    }
+  }
+
+  // Parts by total size, largest first (ties: smallest community).
+  std::stable_sort(parts.begin(),
+                   parts.end(),
+                   [&](const std::vector<int>& a, const std::vector<int>& b) {
+                     int size_a = 0;
+                     int size_b = 0;
+                     for (const int node : a) size_a += community_sizes[node];
+                     for (const int node : b) size_b += community_sizes[node];
+                     return size_a > size_b;
+                   });
+  result.part_of_community.assign(num_communities, -1);
+  for (size_t p = 0; p < parts.size(); ++p) {
+    for (const int node : parts[p]) {
+      result.part_of_community[node] = static_cast<int>(p);
+    }
+  }
+  return result;
+}
+
+}  // namespace colmap

@@ -1,0 +1,96 @@
+// model_evaluator: accuracy of a sparse model against ground-truth cameras.
+//
+//   model_evaluator --model_path OUT --ground_truth_path GT
+//
+// MODEL is a COLMAP model folder, or a folder of numbered models (OUT/0,
+// OUT/1, ... as the mappers write them), in which case the model with the
+// most registered images is evaluated and the number of models reported.
+// Prints "key value" lines (see model_evaluation.h), to stdout and, with
+// --output_path, to a file.
+
+#include "colmap_ext/scene/model_evaluation.h"
+
+#include "colmap/controllers/option_manager.h"
+#include "colmap/util/misc.h"
+
+#include <fstream>
+#include <iostream>
+
+namespace colmap {
+namespace {
+
+bool IsModelDir(const std::string& path) {
+  return ExistsFile(JoinPaths(path, "cameras.bin")) ||
+         ExistsFile(JoinPaths(path, "cameras.txt"));
+}
+
+int RunModelEvaluator(int argc, char** argv) {
+  std::string model_path;
+  std::string ground_truth_path;
+  std::string output_path;
+  ModelEvaluationOptions evaluation_options;
+
+  OptionManager options(/*add_project_options=*/false);
+  options.AddRequiredOption("model_path", &model_path);
+  options.AddRequiredOption("ground_truth_path", &ground_truth_path);
+  options.AddDefaultOption("output_path", &output_path);
+  options.AddDefaultOption("alignment_max_error_fraction",
+                           &evaluation_options.alignment_max_error_fraction);
+  options.Parse(argc, argv);
+
+  if (!IsModelDir(ground_truth_path)) {
+    LOG(ERROR) << "No COLMAP model at --ground_truth_path " << ground_truth_path;
+    return EXIT_FAILURE;
+  }
+  std::vector<std::string> model_dirs;
+  if (IsModelDir(model_path)) {
+    model_dirs.push_back(model_path);
+  } else if (ExistsDir(model_path)) {
+    for (int i = 0; ExistsDir(JoinPaths(model_path, std::to_string(i))); ++i) {
+      if (IsModelDir(JoinPaths(model_path, std::to_string(i)))) {
+        model_dirs.push_back(JoinPaths(model_path, std::to_string(i)));
+      }
+    }
+  }
+
+  Reconstruction ground_truth;
+  ground_truth.Read(ground_truth_path);
+
+  std::string text;
+  if (model_dirs.empty()) {
+    LOG(WARNING) << "No COLMAP model at --model_path " << model_path;
+    ModelEvaluation evaluation = EvaluateModel(
+        Reconstruction(), ground_truth, evaluation_options);
+    text = ModelEvaluationToString(evaluation);
+  } else {
+    // The model with the most registered images.
+    std::unique_ptr<Reconstruction> best;
+    for (const std::string& dir : model_dirs) {
+      auto reconstruction = std::make_unique<Reconstruction>();
+      reconstruction->Read(dir);
+      if (!best || reconstruction->NumRegImages() > best->NumRegImages()) {
+        best = std::move(reconstruction);
+      }
+    }
+    text = ModelEvaluationToString(
+        EvaluateModel(*best, ground_truth, evaluation_options));
+  }
+  text += StringPrintf("num_models %d\n", static_cast<int>(model_dirs.size()));
+
+  std::cout << text << std::flush;
+  if (!output_path.empty()) {
+    std::ofstream file(output_path);
+    THROW_CHECK_FILE_OPEN(file, output_path);
+    file << text;
+  }
+  return EXIT_SUCCESS;
+}
+
+}  // namespace
+}  // namespace colmap
+
+int main(int argc, char** argv) {
+  colmap::InitializeGlog(argv);
+  FLAGS_alsologtostderr = true;
+  return colmap::RunModelEvaluator(argc, argv);
+}

@@ -1,0 +1,115 @@
+// scene_generator: writes a generated scene with community structure (see
+// colmap_ext/scene/synthetic_scene.h) as a COLMAP project:
+//
+//   OUT/database.db     cameras, images, keypoints, matches, two-view
+//                       geometries, as COLMAP's extractor and matcher write
+//   OUT/images/         empty: there are no photos, mappers only warn
+//   OUT/ground_truth/   the true cameras, images and points (binary model)
+//   OUT/clusters.txt    IMAGE_NAME CLUSTER, -1 for walkway images
+//
+//   scene_generator --output_path OUT --num_clusters 3 --seed 1 ...
+
+#include "colmap_ext/scene/synthetic_scene.h"
+
+#include "colmap/controllers/option_manager.h"
+#include "colmap/util/misc.h"
+#include "colmap/util/timer.h"
+
+namespace colmap {
+namespace {
+
+int RunSceneGenerator(int argc, char** argv) {
+  std::string output_path;
+  bool overwrite = false;
+  SyntheticSceneOptions scene_options;
+  int seed = 0;
+
+  OptionManager options(/*add_project_options=*/false);
+  options.AddRequiredOption("output_path", &output_path);
+  options.AddDefaultOption("overwrite", &overwrite);
+  options.AddDefaultOption("num_clusters", &scene_options.num_clusters);
+  options.AddDefaultOption("num_images_per_cluster",
+                           &scene_options.num_images_per_cluster);
+  options.AddDefaultOption("num_images_per_link",
+                           &scene_options.num_images_per_link);
+  options.AddDefaultOption("close_loop", &scene_options.close_loop);
+  options.AddDefaultOption("landmark_spacing", &scene_options.landmark_spacing);
+  options.AddDefaultOption("num_points_per_cluster",
+                           &scene_options.num_points_per_cluster);
+  options.AddDefaultOption("num_points_per_link",
+                           &scene_options.num_points_per_link);
+  options.AddDefaultOption("image_width", &scene_options.image_width);
+  options.AddDefaultOption("image_height", &scene_options.image_height);
+  options.AddDefaultOption("focal_length", &scene_options.focal_length);
+  options.AddDefaultOption("single_camera", &scene_options.single_camera);
+  options.AddDefaultOption("keypoint_noise", &scene_options.keypoint_noise);
+  options.AddDefaultOption("num_distractor_keypoints",
+                           &scene_options.num_distractor_keypoints);
+  options.AddDefaultOption("max_viewing_distance",
+                           &scene_options.max_viewing_distance);
+  options.AddDefaultOption("min_num_inliers", &scene_options.min_num_inliers);
+  options.AddDefaultOption("outlier_match_ratio",
+                           &scene_options.outlier_match_ratio);
+  options.AddDefaultOption("num_false_pairs", &scene_options.num_false_pairs);
+  options.AddDefaultOption("false_pair_num_matches",
+                           &scene_options.false_pair_num_matches);
+  options.AddDefaultOption("seed", &seed);
+  options.Parse(argc, argv);
+  scene_options.seed = static_cast<unsigned int>(seed);
+
+  if (!scene_options.Check()) {
+    LOG(ERROR) << "Invalid scene options.";
+    return EXIT_FAILURE;
+  }
+
+  const std::string database_path = JoinPaths(output_path, "database.db");
+  const std::string ground_truth_path = JoinPaths(output_path, "ground_truth");
+  if (ExistsFile(database_path)) {
+    if (!overwrite) {
+      LOG(ERROR) << database_path
+                 << " exists: choose another --output_path or pass "
+                    "--overwrite 1.";
+      return EXIT_FAILURE;
+    }
+    for (const std::string suffix : {"", "-wal", "-shm"}) {
+      boost::filesystem::remove(database_path + suffix);
+    }
+    boost::filesystem::remove_all(ground_truth_path);
+  }
+  CreateDirIfNotExists(output_path, /*recursive=*/true);
+  CreateDirIfNotExists(JoinPaths(output_path, "images"));
+  CreateDirIfNotExists(ground_truth_path);
+
+  Timer timer;
+  timer.Start();
+  SyntheticScene scene;
+  {
+    Database database(database_path);
+    SynthesizeCommunityScene(scene_options, &scene, &database);
+  }
+  scene.ground_truth.Write(ground_truth_path);
+  WriteImageClusters(scene, JoinPaths(output_path, "clusters.txt"));
+
+  LOG(INFO) << StringPrintf(
+      "Generated %d images (%d clusters of %d, %d per walkway), %d points, "
+      "%d verified pairs, %d false pairs in %.1fs -> %s",
+      static_cast<int>(scene.ground_truth.NumRegImages()),
+      scene_options.num_clusters,
+      scene_options.num_images_per_cluster,
+      scene_options.num_images_per_link,
+      static_cast<int>(scene.ground_truth.NumPoints3D()),
+      scene.num_verified_pairs,
+      scene.num_false_pairs,
+      timer.ElapsedSeconds(),
+      output_path.c_str());
+  return EXIT_SUCCESS;
+}
+
+}  // namespace
+}  // namespace colmap
+
+int main(int argc, char** argv) {
+  colmap::InitializeGlog(argv);
+  FLAGS_alsologtostderr = true;
+  return colmap::RunSceneGenerator(argc, argv);
+}
