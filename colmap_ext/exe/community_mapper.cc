@@ -380,6 +380,10 @@ int RunCommunityMapper(int argc, char** argv) {
   add("robust_first_adjustment",
       &mapper_options.refinement.robust_first_adjustment,
       "start the merged model's bundle adjustment with a robust loss");
+  add("sparse_solver",
+      &mapper_options.refinement.sparse_solver,
+      "use the sparse direct solver in the merged model's bundle adjustment "
+      "at any size (COLMAP switches to the iterative one above 1000 images)");
   // Not saved to project.ini: a saved project must not replace results.
   options.AddDefaultOption("CommunityMapper.overwrite",
                            &overwrite,
@@ -407,7 +411,9 @@ int RunCommunityMapper(int argc, char** argv) {
     for (const auto& write : ini_writers) {
       write();
     }
-    project_ini = text.str() + ini_section.str();
+    // output_path first: options outside any section precede the sections.
+    project_ini = "output_path=" + output_path + "\n" + text.str() +
+                  ini_section.str();
   }
 
   return RunCommunityMapperImpl(mapper_options, overwrite, project_ini)

@@ -1,6 +1,9 @@
 #include "colmap_ext/sfm/community_merger.h"
 
+#include "colmap/estimators/bundle_adjustment.h"
 #include "colmap/sfm/incremental_mapper.h"
+#include "colmap/sfm/observation_manager.h"
+#include "colmap/util/timer.h"
 #include "colmap/util/logging.h"
 #include "colmap/util/misc.h"
 
@@ -136,6 +139,61 @@ size_t MergeCorrespondingPoints(
   return num_merged;
 }
 
+namespace {
+
+// Global bundle adjustment of all registered images, the gauge fixed as
+// COLMAP's mapper fixes it (first image, one coordinate of the second). With
+// `sparse_solver`, Ceres' sparse Schur solver (SuiteSparse) is used at any
+// size; COLMAP switches to the iterative Schur solver above 1000 images.
+bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
+                        const bool sparse_solver,
+                        ObservationManager* observation_manager,
+                        Reconstruction* reconstruction) {
+  const std::vector<image_t>& reg_image_ids = reconstruction->RegImageIds();
+  if (reg_image_ids.size() < 2) {
+    return false;
+  }
+  observation_manager->FilterObservationsWithNegativeDepth();
+  BundleAdjustmentConfig config;
+  for (const image_t image_id : reg_image_ids) {
+    config.AddImage(image_id);
+  }
+  config.SetConstantCamPose(reg_image_ids[0]);
+  config.SetConstantCamPositions(reg_image_ids[1], {0});
+
+  BundleAdjuster bundle_adjuster(options, config);
+  const std::unique_ptr<ceres::LossFunction> loss_function(
+      options.CreateLossFunction());
+  bundle_adjuster.SetUpProblem(reconstruction, loss_function.get());
+  const std::shared_ptr<ceres::Problem> problem = bundle_adjuster.Problem();
+  if (problem->NumResiduals() == 0) {
+    return false;
+  }
+  ceres::Solver::Options solver_options =
+      bundle_adjuster.SetUpSolverOptions(*problem, options.solver_options);
+  if (sparse_solver && solver_options.sparse_linear_algebra_library_type !=
+                           ceres::NO_SPARSE) {
+    solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
+  }
+  Timer timer;
+  timer.Start();
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, problem.get(), &summary);
+  LOG(INFO) << StringPrintf(
+      "Bundle adjustment of %d images, %d residuals: %d iterations, cost "
+      "%.4g -> %.4g, %.1fs (%s)",
+      static_cast<int>(reg_image_ids.size()),
+      problem->NumResiduals(),
+      static_cast<int>(summary.iterations.size()),
+      summary.initial_cost,
+      summary.final_cost,
+      timer.ElapsedSeconds(),
+      ceres::LinearSolverTypeToString(solver_options.linear_solver_type));
+  return summary.IsSolutionUsable();
+}
+
+}  // namespace
+
 MergedModelRefinementSummary RefineMergedModel(
     const MergedModelRefinementOptions& options,
     const IncrementalMapperOptions& mapper_options,
@@ -150,22 +208,15 @@ MergedModelRefinementSummary RefineMergedModel(
   const IncrementalMapper::Options incremental = mapper_options.Mapper();
   const IncrementalTriangulator::Options triangulation =
       mapper_options.Triangulation();
+  const BundleAdjustmentOptions ba_options =
+      mapper_options.GlobalBundleAdjustment();
 
   IncrementalMapper mapper(std::move(database_cache));
   mapper.BeginReconstruction(reconstruction);
-
-  if (options.robust_first_adjustment) {
-    LOG(INFO) << "Robust bundle adjustment of the merged model";
-    BundleAdjustmentOptions ba_options =
-        mapper_options.GlobalBundleAdjustment();
-    ba_options.loss_function_type =
-        BundleAdjustmentOptions::LossFunctionType::SOFT_L1;
-    ba_options.loss_function_scale = 1.0;
-    mapper.AdjustGlobalBundle(incremental, ba_options);
-    mapper.FilterPoints(incremental);
-  }
+  Timer timer;
 
   if (options.register_remaining_images) {
+    timer.Restart();
     const size_t num_reg_images_before = reconstruction->NumRegImages();
     while (true) {
       bool registered = false;
@@ -181,21 +232,63 @@ MergedModelRefinementSummary RefineMergedModel(
     }
     summary.num_newly_registered_images = static_cast<int>(
         reconstruction->NumRegImages() - num_reg_images_before);
-    LOG(INFO) << "Registered " << summary.num_newly_registered_images
-              << " images that no community had registered";
+    LOG(INFO) << StringPrintf(
+        "Registered %d images that no community had registered (%.1fs)",
+        summary.num_newly_registered_images,
+        timer.ElapsedSeconds());
   }
 
-  LOG(INFO) << "Retriangulation and global bundle adjustment";
-  mapper.IterativeGlobalRefinement(mapper_options.ba_global_max_refinements,
-                                   mapper_options.ba_global_max_refinement_change,
-                                   incremental,
-                                   mapper_options.GlobalBundleAdjustment(),
-                                   triangulation,
-                                   /*normalize_reconstruction=*/true);
+  // As the incremental mapper's global refinement: complete and merge tracks
+  // over the whole correspondence graph, re-triangulate, then alternate
+  // bundle adjustment and filtering until few observations change.
+  timer.Restart();
+  const size_t num_completed = mapper.CompleteAndMergeTracks(triangulation);
+  const size_t num_retriangulated = mapper.Retriangulate(triangulation);
+  if (options.robust_first_adjustment) {
+    BundleAdjustmentOptions robust_options = ba_options;
+    robust_options.loss_function_type =
+        BundleAdjustmentOptions::LossFunctionType::SOFT_L1;
+    robust_options.loss_function_scale = 1.0;
+    AdjustGlobalBundle(robust_options,
+                       options.sparse_solver,
+                       &mapper.ObservationManager(),
+                       reconstruction.get());
+  }
+
+  const size_t num_filtered = mapper.FilterPoints(incremental);
+  LOG(INFO) << StringPrintf(
+      "Completed and merged %d observations, re-triangulated %d, filtered %d "
+      "(%.1fs)",
+      static_cast<int>(num_completed),
+      static_cast<int>(num_retriangulated),
+      static_cast<int>(num_filtered),
+      timer.ElapsedSeconds());
+  for (int i = 0; i < mapper_options.ba_global_max_refinements; ++i) {
+    const size_t num_observations = reconstruction->ComputeNumObservations();
+    AdjustGlobalBundle(ba_options,
+                       options.sparse_solver,
+                       &mapper.ObservationManager(),
+                       reconstruction.get());
+    reconstruction->Normalize();
+    const size_t num_changed =
+        mapper.CompleteAndMergeTracks(triangulation) +
+        mapper.FilterPoints(incremental);
+    const double changed =
+        num_observations == 0
+            ? 0
+            : static_cast<double>(num_changed) / num_observations;
+    LOG(INFO) << StringPrintf("Refinement %d: %.5f of the observations changed",
+                              i + 1,
+                              changed);
+    if (changed < mapper_options.ba_global_max_refinement_change) {
+      break;
+    }
+  }
   summary.num_filtered_images =
       static_cast<int>(mapper.FilterImages(incremental));
   mapper.EndReconstruction(/*discard=*/false);
 
+  reconstruction->UpdatePoint3DErrors();
   summary.final_mean_reprojection_error =
       reconstruction->ComputeMeanReprojectionError();
   return summary;

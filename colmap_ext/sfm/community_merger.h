@@ -58,10 +58,16 @@ struct MergedModelRefinementOptions {
   // Try to register the images that no community registered.
   bool register_remaining_images = true;
 
-  // Run a first global bundle adjustment with a robust (soft L1) loss, before
-  // the merged tracks are filtered, so that wrongly merged points do not
-  // pull the cameras.
+  // Start with a global bundle adjustment under a robust (soft L1) loss,
+  // before any filtering: the communities' own drift leaves the merged
+  // points a few pixels apart at first, and the robust loss lets them pull
+  // the communities together where least squares would be dragged by the
+  // few wrong merges and filtering would undo the right ones.
   bool robust_first_adjustment = true;
+
+  // Use Ceres' sparse direct Schur solver at any size (COLMAP switches to
+  // the iterative one above 1000 images).
+  bool sparse_solver = true;
 };
 
 struct MergedModelRefinementSummary {

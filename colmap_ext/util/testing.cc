@@ -2,8 +2,12 @@
 
 #include "colmap/util/logging.h"
 
+#include <array>
+#include <cstdio>
+
 #include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
 namespace colmap {
 
@@ -16,6 +20,39 @@ std::string CreateTestDir() {
   boost::filesystem::remove_all(test_dir);
   boost::filesystem::create_directories(test_dir);
   return test_dir.string();
+}
+
+int RunCommand(const std::string& command, std::string* output) {
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) {
+    return -1;
+  }
+  std::array<char, 4096> buffer;
+  std::string text;
+  size_t num_read;
+  while ((num_read = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) {
+    text.append(buffer.data(), num_read);
+  }
+  const int status = pclose(pipe);
+  if (output != nullptr) {
+    *output = std::move(text);
+  }
+  if (status == -1 || !WIFEXITED(status)) {
+    return -1;
+  }
+  return WEXITSTATUS(status);
+}
+
+std::string ShellQuote(const std::string& text) {
+  std::string quoted = "'";
+  for (const char c : text) {
+    if (c == '\'') {
+      quoted += "'\\''";
+    } else {
+      quoted += c;
+    }
+  }
+  return quoted + "'";
 }
 
 }  // namespace colmap

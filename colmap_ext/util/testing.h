@@ -9,4 +9,11 @@ namespace colmap {
 // A new, empty folder for the running test, named after it.
 std::string CreateTestDir();
 
+// Runs a shell command, capturing stdout and stderr together. Returns its
+// exit status (-1 if it could not be run or was killed).
+int RunCommand(const std::string& command, std::string* output = nullptr);
+
+// Quotes a string for the shell.
+std::string ShellQuote(const std::string& text);
+
 }  // namespace colmap

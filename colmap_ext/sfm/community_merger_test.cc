@@ -1,0 +1,158 @@
+#include "colmap_ext/sfm/community_merger.h"
+
+#include "colmap_ext/scene/synthetic_scene.h"
+
+#include <set>
+
+#include <gtest/gtest.h>
+
+namespace colmap {
+namespace {
+
+// The ground truth seen by the given images only, in its own frame.
+Reconstruction CommunityModel(const Reconstruction& ground_truth,
+                              const std::set<image_t>& image_ids,
+                              const Sim3d& community_from_world) {
+  Reconstruction model = ground_truth;
+  for (const image_t image_id : ground_truth.RegImageIds()) {
+    if (image_ids.count(image_id) == 0) {
+      model.DeRegisterImage(image_id);
+    }
+  }
+  model.Transform(community_from_world);
+  return model;
+}
+
+class JoinReconstructionsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    SyntheticSceneOptions options;
+    options.num_clusters = 2;
+    options.num_images_per_cluster = 15;
+    options.num_images_per_link = 12;
+    options.close_loop = false;
+    options.keypoint_noise = 0;
+    options.seed = 9;
+    SynthesizeCommunityScene(options, &scene_, /*database=*/nullptr);
+    for (const auto& image_and_cluster : scene_.image_cluster) {
+      (image_and_cluster.second == 1 ? owned2_ : owned1_)
+          .insert(image_and_cluster.first);
+    }
+    // Community 1 also registers three images of community 2.
+    images1_ = std::set<image_t>(owned1_.begin(), owned1_.end());
+    images2_ = std::set<image_t>(owned2_.begin(), owned2_.end());
+    auto it = owned2_.begin();
+    for (int i = 0; i < 3; ++i, ++it) {
+      images1_.insert(*it);
+    }
+    community_from_world_ = {
+        Sim3d(0.5,
+              Eigen::Quaterniond(
+                  Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY())),
+              Eigen::Vector3d(3, 0, -1)),
+        Sim3d(3.0,
+              Eigen::Quaterniond(
+                  Eigen::AngleAxisd(2.0, Eigen::Vector3d::UnitZ())),
+              Eigen::Vector3d(0, 10, 0))};
+  }
+
+  SyntheticScene scene_;
+  std::unordered_set<image_t> owned1_;
+  std::unordered_set<image_t> owned2_;
+  std::set<image_t> images1_;
+  std::set<image_t> images2_;
+  std::vector<Sim3d> community_from_world_;
+};
+
+TEST_F(JoinReconstructionsTest, RecoversTheScene) {
+  Reconstruction model1 = CommunityModel(
+      scene_.ground_truth, images1_, community_from_world_[0]);
+  Reconstruction model2 = CommunityModel(
+      scene_.ground_truth, images2_, community_from_world_[1]);
+  // Community 2 refined the shared camera differently.
+  const camera_t camera_id = model2.Cameras().begin()->first;
+  model2.Camera(camera_id).params[0] *= 1.01;
+
+  Reconstruction merged;
+  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
+  JoinReconstructions({&model1, &model2},
+                      {Inverse(community_from_world_[0]),
+                       Inverse(community_from_world_[1])},
+                      {owned1_, owned2_},
+                      &merged,
+                      &point3D_ids);
+
+  EXPECT_EQ(merged.NumRegImages(), scene_.ground_truth.NumRegImages());
+  // Every image's pose is the truth's.
+  for (const image_t image_id : scene_.ground_truth.RegImageIds()) {
+    ASSERT_TRUE(merged.IsImageRegistered(image_id));
+    const Image& truth = scene_.ground_truth.Image(image_id);
+    const Image& image = merged.Image(image_id);
+    EXPECT_LT((image.ProjectionCenter() - truth.ProjectionCenter()).norm(),
+              1e-9);
+    EXPECT_LT(image.CamFromWorld().rotation.angularDistance(
+                  truth.CamFromWorld().rotation),
+              1e-9);
+    EXPECT_EQ(image.NumPoints2D(), truth.NumPoints2D());
+  }
+  // Points are in the world frame and observed only in owned images.
+  for (size_t r = 0; r < 2; ++r) {
+    const Reconstruction& model = r == 0 ? model1 : model2;
+    const auto& owned = r == 0 ? owned1_ : owned2_;
+    for (const auto& old_and_new : point3D_ids[r]) {
+      const Point3D& point3D = merged.Point3D(old_and_new.second);
+      const Eigen::Vector3d& truth_xyz =
+          scene_.ground_truth.Point3D(old_and_new.first).xyz;
+      EXPECT_LT((point3D.xyz - truth_xyz).norm(), 1e-6);
+      for (const auto& track_el : point3D.track.Elements()) {
+        EXPECT_EQ(owned.count(track_el.image_id), 1);
+      }
+      EXPECT_LE(point3D.track.Length(),
+                model.Point3D(old_and_new.first).track.Length());
+    }
+  }
+  // The shared camera comes from the community owning more of its images.
+  const size_t expected_source = owned1_.size() >= owned2_.size() ? 0 : 1;
+  EXPECT_EQ(merged.Camera(camera_id).params,
+            (expected_source == 0 ? model1 : model2).Camera(camera_id).params);
+}
+
+TEST_F(JoinReconstructionsTest, MergesCorrespondingPoints) {
+  Reconstruction model1 = CommunityModel(
+      scene_.ground_truth, images1_, community_from_world_[0]);
+  Reconstruction model2 = CommunityModel(
+      scene_.ground_truth, images2_, community_from_world_[1]);
+  Reconstruction merged;
+  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
+  JoinReconstructions({&model1, &model2},
+                      {Inverse(community_from_world_[0]),
+                       Inverse(community_from_world_[1])},
+                      {owned1_, owned2_},
+                      &merged,
+                      &point3D_ids);
+
+  // The two communities' copies of the same ground-truth point correspond.
+  std::vector<std::pair<point3D_t, point3D_t>> pairs;
+  for (const auto& old_and_new : point3D_ids[0]) {
+    const auto it = point3D_ids[1].find(old_and_new.first);
+    if (it != point3D_ids[1].end()) {
+      pairs.emplace_back(old_and_new.second, it->second);
+    }
+  }
+  ASSERT_GT(pairs.size(), 20);
+  const size_t num_points_before = merged.NumPoints3D();
+
+  const size_t num_merged = MergeCorrespondingPoints(pairs, &merged);
+
+  EXPECT_EQ(num_merged, pairs.size());
+  EXPECT_LE(merged.NumPoints3D(), num_points_before - num_merged);
+  for (const auto& point3D : merged.Points3D()) {
+    EXPECT_GE(point3D.second.track.Length(), 2);
+  }
+  // Merged points keep the truth's position.
+  merged.UpdatePoint3DErrors();
+  EXPECT_LT(merged.ComputeMeanReprojectionError(), 1e-6);
+}
+
+}  // namespace
+}  // namespace colmap

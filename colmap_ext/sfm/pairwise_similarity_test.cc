@@ -1,0 +1,170 @@
+#include "colmap_ext/sfm/pairwise_similarity.h"
+
+#include "colmap_ext/scene/synthetic_scene.h"
+
+#include "colmap/math/math.h"
+
+#include <map>
+#include <random>
+
+#include <gtest/gtest.h>
+
+namespace colmap {
+namespace {
+
+// The ground truth restricted to `image_ids`: other images deregistered,
+// points kept where at least two of the images observe them (tracks cut to
+// those), then moved into the community's own frame by
+// community_from_world.
+Reconstruction CommunityModel(const Reconstruction& ground_truth,
+                              const std::set<image_t>& image_ids,
+                              const Sim3d& community_from_world) {
+  Reconstruction model = ground_truth;
+  for (const image_t image_id : ground_truth.RegImageIds()) {
+    if (image_ids.count(image_id) == 0) {
+      model.DeRegisterImage(image_id);
+    }
+  }
+  for (const point3D_t point3D_id : model.Point3DIds()) {
+    if (model.Point3D(point3D_id).track.Length() < 2) {
+      model.DeletePoint3D(point3D_id);
+    }
+  }
+  model.Transform(community_from_world);
+  return model;
+}
+
+// For every pair of images of the two groups that observe common points, the
+// keypoint matches a matcher would find.
+std::vector<CrossPairMatches> TrueCrossMatches(
+    const Reconstruction& ground_truth,
+    const std::set<image_t>& images1,
+    const std::set<image_t>& images2) {
+  std::map<std::pair<image_t, image_t>, FeatureMatches> matches;
+  for (const auto& point3D : ground_truth.Points3D()) {
+    for (const auto& el1 : point3D.second.track.Elements()) {
+      for (const auto& el2 : point3D.second.track.Elements()) {
+        if (images1.count(el1.image_id) && images2.count(el2.image_id)) {
+          matches[{el1.image_id, el2.image_id}].emplace_back(el1.point2D_idx,
+                                                             el2.point2D_idx);
+        }
+      }
+    }
+  }
+  std::vector<CrossPairMatches> cross_pairs;
+  for (auto& pair_and_matches : matches) {
+    CrossPairMatches cross_pair;
+    cross_pair.image_id1 = pair_and_matches.first.first;
+    cross_pair.image_id2 = pair_and_matches.first.second;
+    cross_pair.matches = std::move(pair_and_matches.second);
+    cross_pairs.push_back(std::move(cross_pair));
+  }
+  return cross_pairs;
+}
+
+class PairwiseSimilarityTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    SyntheticSceneOptions options;
+    options.num_clusters = 2;
+    options.num_images_per_cluster = 20;
+    options.num_images_per_link = 16;
+    options.close_loop = false;
+    options.keypoint_noise = 0;
+    options.seed = 5;
+    SynthesizeCommunityScene(options, &scene_, /*database=*/nullptr);
+    // Community 1: cluster 0 and the walkway; community 2: cluster 1.
+    for (const auto& image_and_cluster : scene_.image_cluster) {
+      (image_and_cluster.second == 1 ? images2_ : images1_)
+          .insert(image_and_cluster.first);
+    }
+    community1_from_world_ = Sim3d(
+        0.1,
+        Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX())),
+        Eigen::Vector3d(1, 2, 3));
+    community2_from_world_ = Sim3d(
+        2.5,
+        Eigen::Quaterniond(Eigen::AngleAxisd(-1.2, Eigen::Vector3d::UnitZ())),
+        Eigen::Vector3d(-40, 7, 0.5));
+  }
+
+  SyntheticScene scene_;
+  std::set<image_t> images1_;
+  std::set<image_t> images2_;
+  Sim3d community1_from_world_;
+  Sim3d community2_from_world_;
+};
+
+TEST_F(PairwiseSimilarityTest, MatchesGroundTruth) {
+  Reconstruction model1 = CommunityModel(
+      scene_.ground_truth, images1_, community1_from_world_);
+  Reconstruction model2 = CommunityModel(
+      scene_.ground_truth, images2_, community2_from_world_);
+
+  // Noise on every point, and a quarter of model 2's points far off, as
+  // wrongly triangulated points would be.
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0, 0.01);
+  int k = 0;
+  for (const point3D_t point3D_id : model2.Point3DIds()) {
+    Eigen::Vector3d& xyz = model2.Point3D(point3D_id).xyz;
+    xyz += 2.5 * Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    if (++k % 4 == 0) {
+      xyz += Eigen::Vector3d(50, -30, 20);
+    }
+  }
+
+  const PointCorrespondences correspondences = FindPointCorrespondences(
+      model1, model2, TrueCrossMatches(scene_.ground_truth, images1_, images2_));
+  ASSERT_GT(correspondences.Size(), 100);
+
+  const PairwiseSimilarity similarity = EstimatePairwiseSimilarity(
+      correspondences, PairwiseSimilarityOptions());
+  ASSERT_TRUE(similarity.success);
+  EXPECT_LT(similarity.num_inliers, 0.8 * correspondences.Size());
+  EXPECT_GT(similarity.num_inliers, 0.6 * correspondences.Size());
+
+  const Sim3d truth = community2_from_world_ * Inverse(community1_from_world_);
+  EXPECT_NEAR(similarity.second_from_first.scale / truth.scale, 1.0, 0.005);
+  EXPECT_LT(RadToDeg(similarity.second_from_first.rotation.angularDistance(
+                truth.rotation)),
+            0.2);
+  // Translation error relative to the scene in community 2's frame (~150 m
+  // times 2.5).
+  EXPECT_LT(
+      (similarity.second_from_first.translation - truth.translation).norm(),
+      0.5);
+}
+
+TEST_F(PairwiseSimilarityTest, EachPointPairCountsOnce) {
+  const Reconstruction model1 = CommunityModel(
+      scene_.ground_truth, images1_, community1_from_world_);
+  const Reconstruction model2 = CommunityModel(
+      scene_.ground_truth, images2_, community2_from_world_);
+  std::vector<CrossPairMatches> cross_pairs =
+      TrueCrossMatches(scene_.ground_truth, images1_, images2_);
+  const size_t num_unique =
+      FindPointCorrespondences(model1, model2, cross_pairs).Size();
+  // The same matches twice give the same correspondences.
+  std::vector<CrossPairMatches> doubled = cross_pairs;
+  doubled.insert(doubled.end(), cross_pairs.begin(), cross_pairs.end());
+  EXPECT_EQ(FindPointCorrespondences(model1, model2, doubled).Size(),
+            num_unique);
+}
+
+TEST(EstimatePairwiseSimilarity, TooFewCorrespondences) {
+  PointCorrespondences correspondences;
+  for (int i = 0; i < 5; ++i) {
+    correspondences.point3D_ids1.push_back(i + 1);
+    correspondences.point3D_ids2.push_back(i + 1);
+    correspondences.points1.push_back(Eigen::Vector3d::Random());
+    correspondences.points2.push_back(correspondences.points1.back());
+  }
+  const PairwiseSimilarity similarity = EstimatePairwiseSimilarity(
+      correspondences, PairwiseSimilarityOptions());
+  EXPECT_FALSE(similarity.success);
+  EXPECT_EQ(similarity.num_correspondences, 5);
+}
+
+}  // namespace
+}  // namespace colmap

@@ -1,0 +1,322 @@
+#include "colmap_ext/sfm/similarity_averaging.h"
+
+#include "colmap/math/math.h"
+
+#include <algorithm>
+#include <numeric>
+#include <random>
+
+#include <gtest/gtest.h>
+
+namespace colmap {
+namespace {
+
+Eigen::Quaterniond RandomRotation(std::mt19937* rng) {
+  std::normal_distribution<double> normal(0, 1);
+  return Eigen::Quaterniond(normal(*rng), normal(*rng), normal(*rng),
+                            normal(*rng))
+      .normalized();
+}
+
+Sim3d RandomSim3(std::mt19937* rng) {
+  std::uniform_real_distribution<double> log_scale(std::log(0.2),
+                                                   std::log(5.0));
+  std::normal_distribution<double> normal(0, 20);
+  return Sim3d(std::exp(log_scale(*rng)),
+               RandomRotation(rng),
+               Eigen::Vector3d(normal(*rng), normal(*rng), normal(*rng)));
+}
+
+struct Problem {
+  std::vector<Sim3d> world_from_community;
+  std::vector<RelativeSimilarity> edges;
+  std::vector<bool> is_outlier;
+  std::vector<int> sizes;
+};
+
+struct Noise {
+  double rotation_deg = 0;
+  double log_scale = 0;
+  // Standard deviation of the correspondences' noise, in the world frame.
+  double point = 0;
+};
+
+// Communities on a ring, each joined to its next three, plus random chords.
+// Each edge has 40 world points (within 10 units of the communities' pair
+// midpoint) seen in both communities' frames. A fraction of the edges, at
+// random but at most a third of any community's edges (L1 needs a majority
+// of right edges around every community), get a random similarity, their
+// points moved consistently with it.
+Problem MakeProblem(const int num_communities,
+                    const int num_chords,
+                    const Noise& noise,
+                    const double outlier_ratio,
+                    const unsigned seed) {
+  std::mt19937 rng(seed);
+  Problem problem;
+  for (int i = 0; i < num_communities; ++i) {
+    problem.world_from_community.push_back(RandomSim3(&rng));
+    problem.sizes.push_back(10 + i);
+  }
+  std::vector<std::pair<int, int>> pairs;
+  for (int i = 0; i < num_communities; ++i) {
+    for (int step = 1; step <= std::min(3, num_communities / 2); ++step) {
+      pairs.emplace_back(i, (i + step) % num_communities);
+    }
+  }
+  std::uniform_int_distribution<int> community(0, num_communities - 1);
+  for (int chord = 0; chord < num_chords;) {
+    const int i = community(rng);
+    const int j = community(rng);
+    if (i != j) {
+      pairs.emplace_back(i, j);
+      ++chord;
+    }
+  }
+
+  std::vector<int> degree(num_communities, 0);
+  for (const auto& pair : pairs) {
+    ++degree[pair.first];
+    ++degree[pair.second];
+  }
+  std::vector<size_t> order(pairs.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::shuffle(order.begin(), order.end(), rng);
+  std::vector<bool> is_outlier(pairs.size(), false);
+  std::vector<int> num_outliers(num_communities, 0);
+  const int target = static_cast<int>(outlier_ratio * pairs.size());
+  int num_chosen = 0;
+  for (const size_t e : order) {
+    const int i = pairs[e].first;
+    const int j = pairs[e].second;
+    if (num_chosen < target && 3 * (num_outliers[i] + 1) <= degree[i] &&
+        3 * (num_outliers[j] + 1) <= degree[j]) {
+      is_outlier[e] = true;
+      ++num_outliers[i];
+      ++num_outliers[j];
+      ++num_chosen;
+    }
+  }
+
+  std::normal_distribution<double> unit_normal(0, 1);
+  for (size_t e = 0; e < pairs.size(); ++e) {
+    const auto& pair = pairs[e];
+    const Sim3d& world_from_1 = problem.world_from_community[pair.first];
+    const Sim3d& world_from_2 = problem.world_from_community[pair.second];
+    RelativeSimilarity edge;
+    edge.community1 = pair.first;
+    edge.community2 = pair.second;
+    edge.weight = 40;
+    const bool outlier = is_outlier[e];
+    const Eigen::Vector3d center =
+        0.5 * (world_from_1.translation + world_from_2.translation);
+    for (int k = 0; k < 40; ++k) {
+      const Eigen::Vector3d world_point =
+          center + 10 * Eigen::Vector3d(unit_normal(rng),
+                                        unit_normal(rng),
+                                        unit_normal(rng));
+      const Eigen::Vector3d noisy = world_point + noise.point *
+                                                      Eigen::Vector3d(
+                                                          unit_normal(rng),
+                                                          unit_normal(rng),
+                                                          unit_normal(rng));
+      edge.points1.push_back(Inverse(world_from_1) * world_point);
+      edge.points2.push_back(Inverse(world_from_2) * noisy);
+    }
+    if (outlier) {
+      edge.second_from_first = RandomSim3(&rng);
+      for (size_t k = 0; k < edge.points1.size(); ++k) {
+        edge.points2[k] = edge.second_from_first * edge.points1[k];
+      }
+    } else {
+      // X2 = (world_from_2)^-1 world_from_1 X1, then perturbed.
+      edge.second_from_first = Inverse(world_from_2) * world_from_1;
+      edge.second_from_first.scale *=
+          std::exp(noise.log_scale * unit_normal(rng));
+      edge.second_from_first.rotation =
+          Eigen::Quaterniond(Eigen::AngleAxisd(
+              DegToRad(noise.rotation_deg) * unit_normal(rng),
+              Eigen::Vector3d(unit_normal(rng), unit_normal(rng),
+                              unit_normal(rng))
+                  .normalized())) *
+          edge.second_from_first.rotation;
+    }
+    problem.edges.push_back(edge);
+    problem.is_outlier.push_back(outlier);
+  }
+  return problem;
+}
+
+struct Errors {
+  double rotation_deg = 0;
+  double log_scale = 0;
+  // Of the communities' origins in the world frame.
+  double position = 0;
+};
+
+// Largest errors after fixing the gauge: the estimate has the reference
+// (largest) community at identity, so compare with truth_ref^-1 * truth_i.
+Errors MaxErrors(const SimilarityAveragingResult& result,
+                 const Problem& problem) {
+  const int reference = static_cast<int>(
+      std::max_element(problem.sizes.begin(), problem.sizes.end()) -
+      problem.sizes.begin());
+  const Sim3d gauge = Inverse(problem.world_from_community[reference]);
+  Errors errors;
+  for (size_t i = 0; i < problem.world_from_community.size(); ++i) {
+    const Sim3d truth = gauge * problem.world_from_community[i];
+    const Sim3d& estimate = result.world_from_community[i];
+    errors.rotation_deg =
+        std::max(errors.rotation_deg,
+                 RadToDeg(estimate.rotation.angularDistance(truth.rotation)));
+    errors.log_scale = std::max(
+        errors.log_scale, std::abs(std::log(estimate.scale / truth.scale)));
+    errors.position = std::max(
+        errors.position, (estimate.translation - truth.translation).norm());
+  }
+  return errors;
+}
+
+SimilarityAveragingOptions NoRejection() {
+  SimilarityAveragingOptions options;
+  options.max_num_rejection_rounds = 0;
+  return options;
+}
+
+TEST(AverageSimilarities, NoiselessInputIsRecoveredExactly) {
+  for (const int num_communities : {10, 20, 30}) {
+    const Problem problem = MakeProblem(num_communities, 5, Noise(), 0, 10);
+    const SimilarityAveragingResult result = AverageSimilarities(
+        problem.sizes, problem.edges, SimilarityAveragingOptions());
+    EXPECT_EQ(result.NumParts(), 1);
+    const Errors errors = MaxErrors(result, problem);
+    EXPECT_LT(errors.rotation_deg, 1e-6) << num_communities;
+    EXPECT_LT(errors.log_scale, 1e-7) << num_communities;
+    // The reference frame's scale is up to 5x that of the truth's unit.
+    EXPECT_LT(errors.position, 1e-5) << num_communities;
+    for (const auto& edge : result.edges) {
+      EXPECT_TRUE(edge.kept);
+    }
+  }
+}
+
+TEST(AverageSimilarities, NoisyInputStaysWithinBound) {
+  Noise noise;
+  noise.rotation_deg = 0.5;
+  noise.log_scale = 0.01;
+  noise.point = 0.1;  // 1% of the points' spread
+  const Problem problem = MakeProblem(20, 10, noise, 0, 11);
+  const SimilarityAveragingResult result = AverageSimilarities(
+      problem.sizes, problem.edges, SimilarityAveragingOptions());
+  EXPECT_EQ(result.NumParts(), 1);
+  const Errors errors = MaxErrors(result, problem);
+  // Bounds: three times the per-edge noise (errors accumulate over a few
+  // edges).
+  EXPECT_LT(errors.rotation_deg, 1.5);
+  EXPECT_LT(errors.log_scale, 0.03);
+  // Positions: within 2% of the spread of the communities (~20 units
+  // around each, up to 5x scaled).
+  EXPECT_LT(errors.position, 2.0);
+  for (const auto& edge : result.edges) {
+    EXPECT_TRUE(edge.kept);
+  }
+}
+
+TEST(AverageSimilarities, L1RecoversTruthWithWrongEdgesLeastSquaresDoesNot) {
+  Noise noise;
+  noise.rotation_deg = 0.2;
+  noise.log_scale = 0.005;
+  const Problem problem = MakeProblem(25, 25, noise, 0.2, 12);
+  int num_outliers = 0;
+  for (const bool outlier : problem.is_outlier) {
+    num_outliers += outlier;
+  }
+  // 20% of the edges are wrong.
+  ASSERT_EQ(num_outliers, 20);
+
+  // Without rejection, so that the solvers alone are compared.
+  const Errors l1 = MaxErrors(
+      AverageSimilarities(problem.sizes, problem.edges, NoRejection()),
+      problem);
+  // Within a few times the right edges' noise (0.2 deg, 0.005 in log
+  // scale), as without wrong edges.
+  EXPECT_LT(l1.rotation_deg, 0.6);
+  EXPECT_LT(l1.log_scale, 0.02);
+  EXPECT_LT(l1.position, 2.0);
+
+  SimilarityAveragingOptions least_squares = NoRejection();
+  least_squares.least_squares = true;
+  least_squares.rotation.max_num_l1_iterations = 0;
+  least_squares.rotation.irls_sigma_deg = 1e9;  // Constant weights.
+  const Errors l2 = MaxErrors(
+      AverageSimilarities(problem.sizes, problem.edges, least_squares),
+      problem);
+  EXPECT_GT(l2.rotation_deg, 10.0);
+  EXPECT_GT(l2.log_scale, 0.1);
+  EXPECT_GT(l2.position, 10.0);
+}
+
+TEST(AverageSimilarities, WrongEdgesAreReportedAndDropped) {
+  Noise noise;
+  noise.rotation_deg = 0.2;
+  noise.log_scale = 0.005;
+  noise.point = 0.05;
+  const Problem problem = MakeProblem(25, 25, noise, 0.2, 13);
+  const SimilarityAveragingResult result = AverageSimilarities(
+      problem.sizes, problem.edges, SimilarityAveragingOptions());
+  EXPECT_EQ(result.NumParts(), 1);
+  int num_dropped_inliers = 0;
+  for (size_t e = 0; e < problem.edges.size(); ++e) {
+    if (problem.is_outlier[e]) {
+      EXPECT_FALSE(result.edges[e].kept) << e;
+    } else {
+      num_dropped_inliers += !result.edges[e].kept;
+    }
+  }
+  EXPECT_LE(num_dropped_inliers, 3);
+  const Errors errors = MaxErrors(result, problem);
+  EXPECT_LT(errors.rotation_deg, 0.6);
+  EXPECT_LT(errors.log_scale, 0.02);
+  EXPECT_LT(errors.position, 2.0);
+}
+
+TEST(AverageSimilarities, UnconnectedCommunitiesFormSeparateParts) {
+  // Communities 0-1-2 and 3-4, no edge between the groups.
+  Problem problem = MakeProblem(5, 0, Noise(), 0, 14);
+  std::vector<RelativeSimilarity> edges;
+  for (const RelativeSimilarity& edge : problem.edges) {
+    const bool first_group = edge.community1 < 3 && edge.community2 < 3;
+    const bool second_group = edge.community1 >= 3 && edge.community2 >= 3;
+    if (first_group || second_group) {
+      edges.push_back(edge);
+    }
+  }
+  problem.sizes = {10, 10, 10, 50, 5};
+  const SimilarityAveragingResult result =
+      AverageSimilarities(problem.sizes, edges, SimilarityAveragingOptions());
+  ASSERT_EQ(result.NumParts(), 2);
+  // Parts by total size: {3, 4} has 55 images, {0, 1, 2} has 30.
+  EXPECT_EQ(result.part_of_community,
+            (std::vector<int>{1, 1, 1, 0, 0}));
+  // Each part's largest community is its reference.
+  EXPECT_LT(result.world_from_community[3].translation.norm(), 1e-12);
+  EXPECT_NEAR(result.world_from_community[3].scale, 1.0, 1e-12);
+  EXPECT_LT(result.world_from_community[0].translation.norm(), 1e-12);
+}
+
+TEST(AverageSimilarities, EdgesWithoutPointsUseTheirTranslation) {
+  Problem problem = MakeProblem(8, 4, Noise(), 0, 15);
+  for (RelativeSimilarity& edge : problem.edges) {
+    edge.points1.clear();
+    edge.points2.clear();
+  }
+  const Errors errors = MaxErrors(
+      AverageSimilarities(problem.sizes, problem.edges,
+                          SimilarityAveragingOptions()),
+      problem);
+  EXPECT_LT(errors.rotation_deg, 1e-6);
+  EXPECT_LT(errors.position, 1e-5);
+}
+
+}  // namespace
+}  // namespace colmap

@@ -1,0 +1,327 @@
+// `colmap community_mapper` end to end on generated scenes with known ground
+// truth: the partition, the merged model's completeness and accuracy, the
+// outputs a user opens, and the comparison with `colmap mapper` where there
+// is no community structure.
+
+#include "colmap_ext/scene/community_io.h"
+#include "colmap_ext/scene/model_evaluation.h"
+#include "colmap_ext/util/testing.h"
+
+#include "colmap/util/misc.h"
+
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <boost/filesystem.hpp>
+#include <gtest/gtest.h>
+
+namespace colmap {
+namespace {
+
+struct Scene {
+  std::string path;
+  std::string DatabasePath() const { return JoinPaths(path, "database.db"); }
+  std::string ImagePath() const { return JoinPaths(path, "images"); }
+  std::string GroundTruthPath() const {
+    return JoinPaths(path, "ground_truth");
+  }
+};
+
+Scene GenerateScene(const std::string& path, const std::string& arguments) {
+  std::string output;
+  const int status = RunCommand(std::string(SCENE_GENERATOR_BINARY) +
+                                    " --output_path " + ShellQuote(path) +
+                                    " --overwrite 1 " + arguments,
+                                &output);
+  THROW_CHECK_EQ(status, 0) << output;
+  return Scene{path};
+}
+
+std::map<std::string, int> ReadClusters(const std::string& path) {
+  std::map<std::string, int> clusters;
+  std::ifstream file(path);
+  std::string line;
+  while (std::getline(file, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream stream(line);
+    std::string name;
+    int cluster;
+    stream >> name >> cluster;
+    clusters[name] = cluster;
+  }
+  return clusters;
+}
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream file(path);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+ModelEvaluation Evaluate(const std::string& model_path,
+                         const std::string& ground_truth_path) {
+  Reconstruction model;
+  model.Read(model_path);
+  Reconstruction ground_truth;
+  ground_truth.Read(ground_truth_path);
+  return EvaluateModel(model, ground_truth);
+}
+
+class CommunityMapperEndToEnd : public ::testing::Test {
+ protected:
+  // One scene for the suite: three landmark clusters of 30 images joined in
+  // a loop by walkways of 20 images each (150 images), with keypoint noise,
+  // 5% wrong matches in verified pairs and 10 falsely verified pairs.
+  static void SetUpTestSuite() {
+    const std::string root = JoinPaths(
+        ::testing::TempDir(), "colmap_ext_tests", "CommunityMapperEndToEnd");
+    boost::filesystem::remove_all(root);
+    scene_ = new Scene(GenerateScene(
+        JoinPaths(root, "scene"),
+        "--num_clusters 3 --num_images_per_cluster 30 "
+        "--num_images_per_link 20 --keypoint_noise 0.7 "
+        "--outlier_match_ratio 0.05 --num_false_pairs 10 --seed 11"));
+    output_path_ = new std::string(JoinPaths(root, "sparse"));
+    log_ = new std::string;
+    status_ = RunCommand(std::string(COLMAP_BINARY) +
+                             " community_mapper --database_path " +
+                             ShellQuote(scene_->DatabasePath()) +
+                             " --image_path " +
+                             ShellQuote(scene_->ImagePath()) +
+                             " --output_path " + ShellQuote(*output_path_),
+                         log_);
+  }
+
+  static void TearDownTestSuite() {
+    delete scene_;
+    delete output_path_;
+    delete log_;
+  }
+
+  static Scene* scene_;
+  static std::string* output_path_;
+  static std::string* log_;
+  static int status_;
+};
+
+Scene* CommunityMapperEndToEnd::scene_ = nullptr;
+std::string* CommunityMapperEndToEnd::output_path_ = nullptr;
+std::string* CommunityMapperEndToEnd::log_ = nullptr;
+int CommunityMapperEndToEnd::status_ = -1;
+
+TEST_F(CommunityMapperEndToEnd, Succeeds) {
+  ASSERT_EQ(status_, 0) << *log_;
+  // The generated scene has no photos: only the colours are lost, with a
+  // warning.
+  EXPECT_NE(log_->find("points will have no colours"), std::string::npos);
+  // Log lines of community reconstructions say which community they are.
+  EXPECT_NE(log_->find("[community 0] "), std::string::npos);
+  EXPECT_NE(log_->find("[community 1] "), std::string::npos);
+}
+
+TEST_F(CommunityMapperEndToEnd, PartitionRecoversTheClusters) {
+  ASSERT_EQ(status_, 0);
+  const std::unordered_map<std::string, int> communities =
+      ReadCommunities(JoinPaths(*output_path_, "communities.txt"));
+  const std::map<std::string, int> clusters =
+      ReadClusters(JoinPaths(scene_->path, "clusters.txt"));
+  // Every image once (ReadCommunities rejects duplicates).
+  EXPECT_EQ(communities.size(), clusters.size());
+  std::map<int, int> num_communities;
+  for (const auto& name_and_community : communities) {
+    num_communities[name_and_community.second] += 1;
+    EXPECT_EQ(clusters.count(name_and_community.first), 1);
+  }
+  EXPECT_GE(num_communities.size(), 3);
+  // Community ids 0..K-1, largest first.
+  int previous_size = std::numeric_limits<int>::max();
+  for (int c = 0; c < static_cast<int>(num_communities.size()); ++c) {
+    ASSERT_EQ(num_communities.count(c), 1);
+    EXPECT_LE(num_communities[c], previous_size);
+    previous_size = num_communities[c];
+  }
+  // Each landmark cluster lies (at least 90%) in one community, and no
+  // community holds two clusters' majorities.
+  std::map<int, int> community_of_cluster;
+  for (int cluster = 0; cluster < 3; ++cluster) {
+    std::map<int, int> counts;
+    int size = 0;
+    for (const auto& name_and_cluster : clusters) {
+      if (name_and_cluster.second == cluster) {
+        ++counts[communities.at(name_and_cluster.first)];
+        ++size;
+      }
+    }
+    const auto largest = std::max_element(
+        counts.begin(), counts.end(), [](const auto& a, const auto& b) {
+          return a.second < b.second;
+        });
+    EXPECT_GE(largest->second, 0.9 * size) << "cluster " << cluster;
+    community_of_cluster[cluster] = largest->first;
+  }
+  std::set<int> distinct;
+  for (const auto& entry : community_of_cluster) {
+    distinct.insert(entry.second);
+  }
+  EXPECT_EQ(distinct.size(), 3);
+}
+
+TEST_F(CommunityMapperEndToEnd, OneAccurateModel) {
+  ASSERT_EQ(status_, 0);
+  const std::string model_path = JoinPaths(*output_path_, "0");
+  ASSERT_TRUE(ExistsFile(JoinPaths(model_path, "cameras.bin")));
+  EXPECT_FALSE(ExistsDir(JoinPaths(*output_path_, "1")));
+
+  const ModelEvaluation evaluation =
+      Evaluate(model_path, scene_->GroundTruthPath());
+  EXPECT_GE(evaluation.num_registered_images,
+            0.98 * evaluation.num_ground_truth_images);
+  ASSERT_TRUE(evaluation.aligned);
+  // Camera positions: median within 0.04% of the scene's extent (150 m:
+  // 6 cm; `colmap mapper` reaches 3.4 cm here), 90% within 0.1%.
+  EXPECT_LT(evaluation.median_position_error, 0.0004 * evaluation.extent);
+  EXPECT_LT(evaluation.p90_position_error, 0.001 * evaluation.extent);
+  EXPECT_LT(evaluation.median_rotation_error_deg, 0.2);
+  EXPECT_LT(evaluation.mean_reprojection_error, 1.0);
+}
+
+TEST_F(CommunityMapperEndToEnd, WritesWhatUsersOpen) {
+  ASSERT_EQ(status_, 0);
+  // Each community's own model.
+  const std::unordered_map<std::string, int> communities =
+      ReadCommunities(JoinPaths(*output_path_, "communities.txt"));
+  int num_communities = 0;
+  for (const auto& entry : communities) {
+    num_communities = std::max(num_communities, entry.second + 1);
+  }
+  for (int c = 0; c < num_communities; ++c) {
+    Reconstruction community;
+    community.Read(JoinPaths(*output_path_, "communities", std::to_string(c)));
+    EXPECT_GT(community.NumRegImages(), 0);
+  }
+  // The camera centres coloured by community.
+  Reconstruction model;
+  model.Read(JoinPaths(*output_path_, "0"));
+  const std::string ply = ReadFile(JoinPaths(*output_path_, "communities.ply"));
+  EXPECT_NE(ply.find("element vertex " + std::to_string(model.NumRegImages()) +
+                     "\n"),
+            std::string::npos);
+  // The options, COLMAP's and ours.
+  const std::string ini = ReadFile(JoinPaths(*output_path_, "project.ini"));
+  EXPECT_NE(ini.find("database_path="), std::string::npos);
+  EXPECT_NE(ini.find("[Mapper]"), std::string::npos);
+  EXPECT_NE(ini.find("[CommunityMapper]"), std::string::npos);
+  EXPECT_NE(ini.find("modularity_threshold=0.3"), std::string::npos);
+  // Nothing temporary is left.
+  for (const auto& entry :
+       boost::filesystem::directory_iterator(*output_path_)) {
+    EXPECT_EQ(entry.path().filename().string().find(".tmp-"),
+              std::string::npos)
+        << entry.path();
+  }
+}
+
+TEST_F(CommunityMapperEndToEnd, ColmapToolsReadTheModel) {
+  ASSERT_EQ(status_, 0);
+  std::string output;
+  EXPECT_EQ(RunCommand(std::string(COLMAP_BINARY) +
+                           " model_analyzer --path " +
+                           ShellQuote(JoinPaths(*output_path_, "0")),
+                       &output),
+            0)
+      << output;
+  Reconstruction model;
+  model.Read(JoinPaths(*output_path_, "0"));
+  EXPECT_NE(output.find("Registered images: " +
+                        std::to_string(model.NumRegImages()) + "\n"),
+            std::string::npos)
+      << output;
+}
+
+TEST_F(CommunityMapperEndToEnd, ProjectFileReproducesTheRun) {
+  ASSERT_EQ(status_, 0);
+  // The saved project, pointed at another folder and stopped after the
+  // partition, gives the same partition.
+  std::string project = ReadFile(JoinPaths(*output_path_, "project.ini"));
+  const std::string rerun = *output_path_ + "-rerun";
+  boost::filesystem::remove_all(rerun);
+  const size_t output_line = project.find("output_path=");
+  ASSERT_NE(output_line, std::string::npos);
+  project.replace(output_line,
+                  project.find('\n', output_line) - output_line,
+                  "output_path=" + rerun);
+  const size_t partition_only = project.find("partition_only=0");
+  ASSERT_NE(partition_only, std::string::npos);
+  project.replace(partition_only, 16, "partition_only=1");
+  const std::string ini_path = *output_path_ + "-rerun.ini";
+  std::ofstream(ini_path) << project;
+
+  std::string output;
+  ASSERT_EQ(RunCommand(std::string(COLMAP_BINARY) +
+                           " community_mapper --project_path " +
+                           ShellQuote(ini_path),
+                       &output),
+            0)
+      << output;
+  EXPECT_EQ(ReadCommunities(JoinPaths(rerun, "communities.txt")),
+            ReadCommunities(JoinPaths(*output_path_, "communities.txt")));
+  EXPECT_FALSE(ExistsDir(JoinPaths(rerun, "0")));
+}
+
+// A scene without community structure: one cluster of cameras around one
+// landmark. The community mapper must find one community and give the
+// incremental mapper's result.
+TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
+  const std::string test_dir = CreateTestDir();
+  const Scene scene = GenerateScene(
+      JoinPaths(test_dir, "scene"),
+      "--num_clusters 1 --num_images_per_cluster 50 --keypoint_noise 0.7 "
+      "--seed 12");
+
+  const std::string community_path = JoinPaths(test_dir, "community");
+  std::string log;
+  ASSERT_EQ(RunCommand(std::string(COLMAP_BINARY) +
+                           " community_mapper --database_path " +
+                           ShellQuote(scene.DatabasePath()) +
+                           " --image_path " + ShellQuote(scene.ImagePath()) +
+                           " --output_path " + ShellQuote(community_path),
+                       &log),
+            0)
+      << log;
+  const std::unordered_map<std::string, int> communities =
+      ReadCommunities(JoinPaths(community_path, "communities.txt"));
+  EXPECT_EQ(communities.size(), 50);
+  for (const auto& entry : communities) {
+    EXPECT_EQ(entry.second, 0);
+  }
+
+  const std::string mapper_path = JoinPaths(test_dir, "mapper");
+  CreateDirIfNotExists(mapper_path);
+  ASSERT_EQ(RunCommand(std::string(COLMAP_BINARY) +
+                           " mapper --database_path " +
+                           ShellQuote(scene.DatabasePath()) +
+                           " --image_path " + ShellQuote(scene.ImagePath()) +
+                           " --output_path " + ShellQuote(mapper_path),
+                       &log),
+            0)
+      << log;
+
+  const ModelEvaluation community = Evaluate(
+      JoinPaths(community_path, "0"), scene.GroundTruthPath());
+  const ModelEvaluation mapper =
+      Evaluate(JoinPaths(mapper_path, "0"), scene.GroundTruthPath());
+  EXPECT_EQ(community.num_registered_images, mapper.num_registered_images);
+  ASSERT_TRUE(community.aligned);
+  ASSERT_TRUE(mapper.aligned);
+  // As good as the mapper: within 1.5x of its median error, or within
+  // 0.05% of the extent where both are tiny.
+  EXPECT_LT(community.median_position_error,
+            std::max(1.5 * mapper.median_position_error,
+                     0.0005 * community.extent));
+  EXPECT_LT(community.mean_reprojection_error, 1.0);
+}
+
+}  // namespace
+}  // namespace colmap

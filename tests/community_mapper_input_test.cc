@@ -1,0 +1,252 @@
+// Bad input to `colmap community_mapper`: each case must end with a message
+// naming the problem and what to do, a non-zero exit, and nothing written.
+
+#include "colmap_ext/util/testing.h"
+
+#include "colmap/scene/database.h"
+#include "colmap/util/misc.h"
+
+#include <fstream>
+#include <iterator>
+
+#include <boost/filesystem.hpp>
+#include <gtest/gtest.h>
+
+namespace colmap {
+namespace {
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(file),
+                     std::istreambuf_iterator<char>());
+}
+
+// Runs community_mapper; returns its exit status and output.
+int RunCommunityMapper(const std::string& database_path,
+                       const std::string& image_path,
+                       const std::string& output_path,
+                       const std::string& extra_arguments,
+                       std::string* output) {
+  return RunCommand(std::string(COLMAP_BINARY) +
+                        " community_mapper --database_path " +
+                        ShellQuote(database_path) + " --image_path " +
+                        ShellQuote(image_path) + " --output_path " +
+                        ShellQuote(output_path) + " " + extra_arguments,
+                    output);
+}
+
+// A database with `num_images` images; with keypoints if asked; pairs
+// (i, i+1) verified with 50 inlier matches if asked.
+void CreateDatabase(const std::string& path,
+                    const int num_images,
+                    const bool with_keypoints,
+                    const bool with_matches) {
+  Database database(path);
+  const camera_t camera_id = database.WriteCamera(Camera::CreateFromModelName(
+      kInvalidCameraId, "SIMPLE_RADIAL", 500, 640, 480));
+  std::vector<image_t> image_ids;
+  for (int i = 0; i < num_images; ++i) {
+    Image image;
+    image.SetName("image" + std::to_string(i) + ".jpg");
+    image.SetCameraId(camera_id);
+    image_ids.push_back(database.WriteImage(image));
+    if (with_keypoints) {
+      database.WriteKeypoints(image_ids.back(),
+                              FeatureKeypoints(100, FeatureKeypoint(1, 1)));
+    }
+  }
+  if (with_matches) {
+    for (int i = 0; i + 1 < num_images; ++i) {
+      TwoViewGeometry two_view_geometry;
+      two_view_geometry.config = TwoViewGeometry::CALIBRATED;
+      for (int k = 0; k < 50; ++k) {
+        two_view_geometry.inlier_matches.emplace_back(k, k);
+      }
+      database.WriteTwoViewGeometry(
+          image_ids[i], image_ids[i + 1], two_view_geometry);
+    }
+  }
+}
+
+class CommunityMapperInputTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    test_dir_ = CreateTestDir();
+    image_path_ = JoinPaths(test_dir_, "images");
+    CreateDirIfNotExists(image_path_);
+    output_path_ = JoinPaths(test_dir_, "out");
+    good_database_ = JoinPaths(test_dir_, "good.db");
+    CreateDatabase(good_database_, 4, true, true);
+  }
+
+  // Runs with the given arguments and expects a refusal whose message
+  // contains `expected`, with nothing written to the output folder.
+  void ExpectRefusal(const std::string& database_path,
+                     const std::string& extra_arguments,
+                     const std::string& expected) {
+    std::string output;
+    EXPECT_NE(RunCommunityMapper(database_path,
+                                 image_path_,
+                                 output_path_,
+                                 extra_arguments,
+                                 &output),
+              0)
+        << output;
+    EXPECT_NE(output.find(expected), std::string::npos)
+        << "expected \"" << expected << "\" in:\n"
+        << output;
+    EXPECT_FALSE(boost::filesystem::exists(output_path_)) << output;
+  }
+
+  std::string test_dir_;
+  std::string image_path_;
+  std::string output_path_;
+  std::string good_database_;
+};
+
+TEST_F(CommunityMapperInputTest, MissingDatabase) {
+  ExpectRefusal(JoinPaths(test_dir_, "missing.db"), "", "does not exist");
+  // Nor is an empty database created in its place.
+  EXPECT_FALSE(ExistsFile(JoinPaths(test_dir_, "missing.db")));
+}
+
+TEST_F(CommunityMapperInputTest, FileThatIsNoDatabase) {
+  const std::string path = JoinPaths(test_dir_, "notes.db");
+  std::ofstream(path) << "these are not the images you are looking for\n";
+  ExpectRefusal(path, "", "Cannot read the database");
+}
+
+TEST_F(CommunityMapperInputTest, DatabaseWithoutImages) {
+  const std::string path = JoinPaths(test_dir_, "empty.db");
+  CreateDatabase(path, 0, false, false);
+  ExpectRefusal(path, "", "has no images: run `colmap feature_extractor`");
+}
+
+TEST_F(CommunityMapperInputTest, DatabaseWithoutFeatures) {
+  const std::string path = JoinPaths(test_dir_, "no_features.db");
+  CreateDatabase(path, 4, false, false);
+  ExpectRefusal(path, "", "no features: run `colmap feature_extractor`");
+}
+
+TEST_F(CommunityMapperInputTest, DatabaseWithoutVerifiedPairs) {
+  const std::string path = JoinPaths(test_dir_, "no_matches.db");
+  CreateDatabase(path, 4, true, false);
+  ExpectRefusal(path, "", "no verified image pairs");
+  ExpectRefusal(path, "", "run a matcher first");
+}
+
+TEST_F(CommunityMapperInputTest, TooFewInliersForTheThreshold) {
+  // The pairs have 50 inliers; asking for 60 leaves none.
+  ExpectRefusal(good_database_,
+                "--CommunityMapper.min_num_matches 60",
+                "no verified image pairs with at least 60 inlier matches");
+}
+
+TEST_F(CommunityMapperInputTest, InvalidOptionValues) {
+  ExpectRefusal(good_database_,
+                "--CommunityMapper.modularity_threshold 1.0",
+                "modularity_threshold is 1: it must be in [0, 1)");
+  ExpectRefusal(good_database_,
+                "--CommunityMapper.modularity_threshold -0.1",
+                "modularity_threshold is -0.1: it must be in [0, 1)");
+  ExpectRefusal(good_database_,
+                "--CommunityMapper.min_community_size 1",
+                "min_community_size is 1: it must be at least 2");
+  ExpectRefusal(good_database_,
+                "--CommunityMapper.edge_weights inliers",
+                "edge_weights is 'inliers': use 'unit' or 'num_inliers'");
+  ExpectRefusal(good_database_,
+                "--CommunityMapper.num_workers 0",
+                "num_workers is 0");
+  ExpectRefusal(good_database_,
+                "--CommunityMapper.image_overlap -1",
+                "image_overlap is -1");
+}
+
+TEST_F(CommunityMapperInputTest, OutputPathIsAFile) {
+  std::ofstream(output_path_) << "a file\n";
+  std::string output;
+  EXPECT_NE(RunCommunityMapper(
+                good_database_, image_path_, output_path_, "", &output),
+            0);
+  EXPECT_NE(output.find("is a file, not a folder"), std::string::npos)
+      << output;
+  EXPECT_EQ(ReadFile(output_path_), "a file\n");
+}
+
+TEST_F(CommunityMapperInputTest, OutputPathNotWritable) {
+  // Even root may not create folders in /sys.
+  const std::string unwritable = "/sys/colmap_ext_test_output";
+  boost::system::error_code error;
+  if (boost::filesystem::create_directory(unwritable, error)) {
+    boost::filesystem::remove(unwritable);
+    GTEST_SKIP() << "/sys is writable here; cannot test an unwritable path";
+  }
+  std::string output;
+  EXPECT_NE(RunCommunityMapper(
+                good_database_, image_path_, unwritable, "", &output),
+            0);
+  EXPECT_NE(output.find("Cannot create --output_path"), std::string::npos)
+      << output;
+
+  // An existing folder without write permission.
+  EXPECT_NE(RunCommunityMapper(
+                good_database_, image_path_, "/sys/kernel", "", &output),
+            0);
+  EXPECT_NE(output.find("is not writable"), std::string::npos) << output;
+}
+
+TEST_F(CommunityMapperInputTest, EarlierResultsAreNotReplacedSilently) {
+  // An earlier model in OUT/0.
+  const std::string model_path = JoinPaths(output_path_, "0");
+  CreateDirIfNotExists(model_path, /*recursive=*/true);
+  for (const std::string name : {"cameras.bin", "images.bin", "points3D.bin"}) {
+    std::ofstream(JoinPaths(model_path, name)) << name;
+  }
+  std::string output;
+  EXPECT_NE(RunCommunityMapper(good_database_,
+                               image_path_,
+                               output_path_,
+                               "--CommunityMapper.partition_only 1",
+                               &output),
+            0);
+  EXPECT_NE(output.find("already holds results of an earlier run"),
+            std::string::npos)
+      << output;
+  EXPECT_NE(output.find("--CommunityMapper.overwrite 1"), std::string::npos);
+  EXPECT_EQ(ReadFile(JoinPaths(model_path, "cameras.bin")), "cameras.bin");
+  EXPECT_FALSE(ExistsFile(JoinPaths(output_path_, "communities.txt")));
+
+  // With permission, the run goes ahead.
+  EXPECT_EQ(RunCommunityMapper(good_database_,
+                               image_path_,
+                               output_path_,
+                               "--CommunityMapper.partition_only 1 "
+                               "--CommunityMapper.overwrite 1",
+                               &output),
+            0)
+      << output;
+  EXPECT_TRUE(ExistsFile(JoinPaths(output_path_, "communities.txt")));
+}
+
+TEST_F(CommunityMapperInputTest, HelpListsEveryOptionWithItsDefault) {
+  std::string output;
+  EXPECT_EQ(RunCommand(std::string(COLMAP_BINARY) + " community_mapper -h",
+                       &output),
+            0);
+  for (const std::string option :
+       {"--CommunityMapper.modularity_threshold arg (=0.29999",
+        "--CommunityMapper.min_community_size arg (=20)",
+        "--CommunityMapper.min_num_matches arg (=-1)",
+        "--CommunityMapper.edge_weights arg (=unit)",
+        "--CommunityMapper.partition_only arg (=0)",
+        "--CommunityMapper.num_workers arg (=-1)",
+        "--CommunityMapper.overwrite arg (=0)",
+        "--Mapper.min_num_matches arg (=15)",
+        "--project_path"}) {
+    EXPECT_NE(output.find(option), std::string::npos) << option;
+  }
+}
+
+}  // namespace
+}  // namespace colmap
