@@ -98,6 +98,8 @@ ModelEvaluation EvaluateModel(const Reconstruction& model,
     const Eigen::Quaterniond aligned_cam_from_world =
         model_image.CamFromWorld().rotation * gt_from_model.rotation.inverse();
     evaluation.image_names.push_back(name_and_images.first);
+    evaluation.aligned_centers.push_back(aligned_center);
+    evaluation.ground_truth_centers.push_back(gt_image.ProjectionCenter());
     evaluation.position_errors.push_back(
         (aligned_center - gt_image.ProjectionCenter()).norm());
     evaluation.rotation_errors_deg.push_back(RadToDeg(
@@ -136,6 +138,23 @@ std::string ModelEvaluationToString(const ModelEvaluation& evaluation) {
                        evaluation.p90_position_error / extent);
   text += StringPrintf("median_rotation_error_deg %.6f\n",
                        evaluation.median_rotation_error_deg);
+  return text;
+}
+
+std::string AlignedCentersToString(const ModelEvaluation& evaluation) {
+  std::string text = "# IMAGE_NAME X Y Z GT_X GT_Y GT_Z\n";
+  for (size_t i = 0; i < evaluation.image_names.size(); ++i) {
+    const Eigen::Vector3d& center = evaluation.aligned_centers[i];
+    const Eigen::Vector3d& truth = evaluation.ground_truth_centers[i];
+    text += StringPrintf("%s %.6f %.6f %.6f %.6f %.6f %.6f\n",
+                         evaluation.image_names[i].c_str(),
+                         center.x(),
+                         center.y(),
+                         center.z(),
+                         truth.x(),
+                         truth.y(),
+                         truth.z());
+  }
   return text;
 }
 

@@ -46,6 +46,9 @@ struct ModelEvaluation {
   std::vector<std::string> image_names;
   std::vector<double> position_errors;
   std::vector<double> rotation_errors_deg;
+  // Camera centres of the model after the alignment, and of the truth.
+  std::vector<Eigen::Vector3d> aligned_centers;
+  std::vector<Eigen::Vector3d> ground_truth_centers;
 };
 
 ModelEvaluation EvaluateModel(const Reconstruction& model,
@@ -54,5 +57,8 @@ ModelEvaluation EvaluateModel(const Reconstruction& model,
 
 // "key value" lines, one figure per line, for scripts to read.
 std::string ModelEvaluationToString(const ModelEvaluation& evaluation);
+
+// "IMAGE_NAME X Y Z GT_X GT_Y GT_Z" lines: aligned and true camera centres.
+std::string AlignedCentersToString(const ModelEvaluation& evaluation);
 
 }  // namespace colmap

@@ -6,9 +6,11 @@
 // OUT/1, ... as the mappers write them), in which case the model with the
 // most registered images is evaluated and the number of models reported.
 // Prints "key value" lines (see model_evaluation.h), to stdout and, with
-// --output_path, to a file.
+// --output_path, to a file; --aligned_centers_path writes the aligned and
+// true camera centres.
 
 #include "colmap_ext/scene/model_evaluation.h"
+#include "colmap_ext/util/atomic_output.h"
 
 #include "colmap/controllers/option_manager.h"
 #include "colmap/util/misc.h"
@@ -19,21 +21,18 @@
 namespace colmap {
 namespace {
 
-bool IsModelDir(const std::string& path) {
-  return ExistsFile(JoinPaths(path, "cameras.bin")) ||
-         ExistsFile(JoinPaths(path, "cameras.txt"));
-}
-
 int RunModelEvaluator(int argc, char** argv) {
   std::string model_path;
   std::string ground_truth_path;
   std::string output_path;
+  std::string aligned_centers_path;
   ModelEvaluationOptions evaluation_options;
 
   OptionManager options(/*add_project_options=*/false);
   options.AddRequiredOption("model_path", &model_path);
   options.AddRequiredOption("ground_truth_path", &ground_truth_path);
   options.AddDefaultOption("output_path", &output_path);
+  options.AddDefaultOption("aligned_centers_path", &aligned_centers_path);
   options.AddDefaultOption("alignment_max_error_fraction",
                            &evaluation_options.alignment_max_error_fraction);
   options.Parse(argc, argv);
@@ -56,27 +55,28 @@ int RunModelEvaluator(int argc, char** argv) {
   Reconstruction ground_truth;
   ground_truth.Read(ground_truth_path);
 
-  std::string text;
+  // The model with the most registered images.
+  auto best = std::make_unique<Reconstruction>();
   if (model_dirs.empty()) {
     LOG(WARNING) << "No COLMAP model at --model_path " << model_path;
-    ModelEvaluation evaluation = EvaluateModel(
-        Reconstruction(), ground_truth, evaluation_options);
-    text = ModelEvaluationToString(evaluation);
-  } else {
-    // The model with the most registered images.
-    std::unique_ptr<Reconstruction> best;
-    for (const std::string& dir : model_dirs) {
-      auto reconstruction = std::make_unique<Reconstruction>();
-      reconstruction->Read(dir);
-      if (!best || reconstruction->NumRegImages() > best->NumRegImages()) {
-        best = std::move(reconstruction);
-      }
-    }
-    text = ModelEvaluationToString(
-        EvaluateModel(*best, ground_truth, evaluation_options));
   }
+  for (const std::string& dir : model_dirs) {
+    auto reconstruction = std::make_unique<Reconstruction>();
+    reconstruction->Read(dir);
+    if (reconstruction->NumRegImages() > best->NumRegImages()) {
+      best = std::move(reconstruction);
+    }
+  }
+  const ModelEvaluation evaluation =
+      EvaluateModel(*best, ground_truth, evaluation_options);
+  std::string text = ModelEvaluationToString(evaluation);
   text += StringPrintf("num_models %d\n", static_cast<int>(model_dirs.size()));
 
+  if (!aligned_centers_path.empty()) {
+    std::ofstream file(aligned_centers_path);
+    THROW_CHECK_FILE_OPEN(file, aligned_centers_path);
+    file << AlignedCentersToString(evaluation);
+  }
   std::cout << text << std::flush;
   if (!output_path.empty()) {
     std::ofstream file(output_path);

@@ -1,0 +1,53 @@
+#!/usr/bin/python3
+"""Runs scripts/benchmark.py --quick and checks that it reports every figure
+for every method (not how fast anything is)."""
+
+import csv
+import math
+import os
+import subprocess
+import sys
+import tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def main():
+    out = tempfile.mkdtemp(prefix="benchmark_quick_")
+    subprocess.run([sys.executable, os.path.join(ROOT, "scripts",
+                                                 "benchmark.py"),
+                    "--quick", "--out", out], check=True)
+    rows = list(csv.DictReader(open(os.path.join(out, "results.csv"))))
+    methods = [row["method"] for row in rows]
+    assert methods == ["mapper", "community", "hierarchical", "hier_fair"], \
+        methods
+    numeric = ["wall_s", "cpu_s", "peak_rss_mb", "models", "registered",
+               "mean_reproj_px", "median_pos_err", "p90_pos_err",
+               "median_pos_err_frac", "median_rot_err_deg",
+               "time_vs_mapper", "time_vs_hierarchical", "time_vs_hier_fair",
+               "memory_vs_mapper"]
+    for row in rows:
+        assert row["exit"] == "0", row
+        for field in numeric:
+            value = float(row[field])
+            assert math.isfinite(value) and value >= 0, (row["method"], field)
+        assert float(row["wall_s"]) > 0 and float(row["peak_rss_mb"]) > 0
+        assert int(row["registered"]) > 0, row
+    community = rows[1]
+    for phase in ("partition", "communities", "similarity_averaging",
+                  "merge_and_bundle_adjustment"):
+        assert float(community[f"phase_{phase}_s"]) >= 0, phase
+    assert int(community["communities"]) >= 2
+    table = open(os.path.join(out, "results.md")).read()
+    for text in ("colmap mapper", "colmap community_mapper",
+                 "time / mapper", "Bar:"):
+        assert text in table, text
+    for png in ("time_vs_images.png", "cameras_quick.png"):
+        path = os.path.join(out, png)
+        assert os.path.getsize(path) > 10000, path
+        assert open(path, "rb").read(8) == b"\x89PNG\r\n\x1a\n", path
+    print(f"benchmark --quick reported every figure ({out})")
+
+
+if __name__ == "__main__":
+    main()
