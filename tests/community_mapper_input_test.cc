@@ -135,6 +135,22 @@ TEST_F(CommunityMapperInputTest, DatabaseWithoutVerifiedPairs) {
   ExpectRefusal(path, "", "run a matcher first");
 }
 
+TEST_F(CommunityMapperInputTest, ImagesThatFailFeatureExtraction) {
+  // Files named like photos that are none: COLMAP's feature extractor
+  // skips them, and community_mapper says which step to look at.
+  for (const std::string name : {"a.jpg", "b.jpg", "c.jpg"}) {
+    std::ofstream(JoinPaths(image_path_, name)) << "not a photo";
+  }
+  const std::string path = JoinPaths(test_dir_, "extracted.db");
+  std::string output;
+  RunCommand(std::string(COLMAP_BINARY) +
+                 " feature_extractor --SiftExtraction.use_gpu 0"
+                 " --database_path " +
+                 ShellQuote(path) + " --image_path " + ShellQuote(image_path_),
+             &output);
+  ExpectRefusal(path, "", "run `colmap feature_extractor`");
+}
+
 TEST_F(CommunityMapperInputTest, TooFewInliersForTheThreshold) {
   // The pairs have 50 inliers; asking for 60 leaves none.
   ExpectRefusal(good_database_,

@@ -1,0 +1,60 @@
+#!/usr/bin/env bash
+# Opens a community_mapper result in COLMAP's GUI under Xvfb, takes a
+# screenshot once the window shows the model, and checks that the picture is
+# not blank and that the GUI did not crash. The screenshot is kept as
+# $ARTIFACT_DIR/gui.png (default: build/test-artifacts/).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+BUILD_DIR=${BUILD_DIR:-$here/../build}
+ARTIFACT_DIR=${ARTIFACT_DIR:-$BUILD_DIR/test-artifacts}
+mkdir -p "$ARTIFACT_DIR"
+work=$(mktemp -d /tmp/colmap_gui_test.XXXXXX)
+xvfb_pid=""
+gui_pid=""
+cleanup() {
+  [ -n "$gui_pid" ] && kill "$gui_pid" 2>/dev/null || true
+  [ -n "$xvfb_pid" ] && kill "$xvfb_pid" 2>/dev/null || true
+  rm -rf "$work"
+}
+trap cleanup EXIT
+
+"$BUILD_DIR/scene_generator" --output_path "$work/scene" --num_clusters 2 \
+  --num_images_per_cluster 20 --num_images_per_link 25 --close_loop 0 \
+  --seed 5 >"$work/generate.log" 2>&1
+"$BUILD_DIR/colmap" community_mapper --database_path "$work/scene/database.db" \
+  --image_path "$work/scene/images" --output_path "$work/sparse" \
+  >"$work/mapper.log" 2>&1
+
+# Xvfb picks a free display and tells which.
+exec 3<> "$work/display"
+Xvfb -displayfd 3 -screen 0 1280x1024x24 -nolisten tcp >"$work/xvfb.log" 2>&1 &
+xvfb_pid=$!
+for _ in $(seq 50); do
+  [ -s "$work/display" ] && break
+  sleep 0.1
+done
+display=":$(head -n1 "$work/display")"
+echo "Xvfb on display $display"
+
+DISPLAY=$display "$BUILD_DIR/colmap" gui --import_path "$work/sparse/0" \
+  --database_path "$work/scene/database.db" \
+  --image_path "$work/scene/images" >"$work/gui.log" 2>&1 &
+gui_pid=$!
+sleep "${GUI_WAIT_SECONDS:-20}"
+
+if ! kill -0 "$gui_pid" 2>/dev/null; then
+  echo "FAIL: the GUI exited early:"; tail -20 "$work/gui.log"; exit 1
+fi
+DISPLAY=$display import -window root "$ARTIFACT_DIR/gui.png"
+if ! kill -0 "$gui_pid" 2>/dev/null; then
+  echo "FAIL: the GUI crashed while shown:"; tail -20 "$work/gui.log"; exit 1
+fi
+
+# Not blank: many distinct colours and a spread of intensities.
+colors=$(identify -format "%k" "$ARTIFACT_DIR/gui.png")
+deviation=$(identify -format "%[fx:standard_deviation]" "$ARTIFACT_DIR/gui.png")
+echo "screenshot: $colors colours, intensity deviation $deviation"
+if [ "$colors" -lt 50 ] || awk "BEGIN {exit !($deviation < 0.02)}"; then
+  echo "FAIL: the screenshot is blank"; exit 1
+fi
+echo "PASS: the GUI shows the model ($ARTIFACT_DIR/gui.png)"
