@@ -30,10 +30,10 @@ struct Scene {
 
 Scene GenerateScene(const std::string& path, const std::string& arguments) {
   std::string output;
-  const int status = RunCommand(std::string(SCENE_GENERATOR_BINARY) +
-                                    " --output_path " + ShellQuote(path) +
-                                    " --overwrite 1 " + arguments,
-                                &output);
+  const int status =
+      RunCommand(std::string(SCENE_GENERATOR_BINARY) + " --output_path " +
+                     ShellQuote(path) + " --overwrite 1 " + arguments,
+                 &output);
   THROW_CHECK_EQ(status, 0) << output;
   return Scene{path};
 }
@@ -85,13 +85,12 @@ class CommunityMapperEndToEnd : public ::testing::Test {
         "--outlier_match_ratio 0.05 --num_false_pairs 10 --seed 11"));
     output_path_ = new std::string(JoinPaths(root, "sparse"));
     log_ = new std::string;
-    status_ = RunCommand(std::string(COLMAP_BINARY) +
-                             " community_mapper --database_path " +
-                             ShellQuote(scene_->DatabasePath()) +
-                             " --image_path " +
-                             ShellQuote(scene_->ImagePath()) +
-                             " --output_path " + ShellQuote(*output_path_),
-                         log_);
+    status_ = RunCommand(
+        std::string(COLMAP_BINARY) + " community_mapper --database_path " +
+            ShellQuote(scene_->DatabasePath()) + " --image_path " +
+            ShellQuote(scene_->ImagePath()) + " --output_path " +
+            ShellQuote(*output_path_),
+        log_);
   }
 
   static void TearDownTestSuite() {
@@ -205,9 +204,9 @@ TEST_F(CommunityMapperEndToEnd, WritesWhatUsersOpen) {
   Reconstruction model;
   model.Read(JoinPaths(*output_path_, "0"));
   const std::string ply = ReadFile(JoinPaths(*output_path_, "communities.ply"));
-  EXPECT_NE(ply.find("element vertex " + std::to_string(model.NumRegImages()) +
-                     "\n"),
-            std::string::npos);
+  EXPECT_NE(
+      ply.find("element vertex " + std::to_string(model.NumRegImages()) + "\n"),
+      std::string::npos);
   // The options, COLMAP's and ours.
   const std::string ini = ReadFile(JoinPaths(*output_path_, "project.ini"));
   EXPECT_NE(ini.find("database_path="), std::string::npos);
@@ -217,8 +216,7 @@ TEST_F(CommunityMapperEndToEnd, WritesWhatUsersOpen) {
   // Nothing temporary is left.
   for (const auto& entry :
        boost::filesystem::directory_iterator(*output_path_)) {
-    EXPECT_EQ(entry.path().filename().string().find(".tmp-"),
-              std::string::npos)
+    EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos)
         << entry.path();
   }
 }
@@ -226,8 +224,7 @@ TEST_F(CommunityMapperEndToEnd, WritesWhatUsersOpen) {
 TEST_F(CommunityMapperEndToEnd, ColmapToolsReadTheModel) {
   ASSERT_EQ(status_, 0);
   std::string output;
-  EXPECT_EQ(RunCommand(std::string(COLMAP_BINARY) +
-                           " model_analyzer --path " +
+  EXPECT_EQ(RunCommand(std::string(COLMAP_BINARY) + " model_analyzer --path " +
                            ShellQuote(JoinPaths(*output_path_, "0")),
                        &output),
             0)
@@ -259,11 +256,11 @@ TEST_F(CommunityMapperEndToEnd, ProjectFileReproducesTheRun) {
   std::ofstream(ini_path) << project;
 
   std::string output;
-  ASSERT_EQ(RunCommand(std::string(COLMAP_BINARY) +
-                           " community_mapper --project_path " +
-                           ShellQuote(ini_path),
-                       &output),
-            0)
+  ASSERT_EQ(
+      RunCommand(std::string(COLMAP_BINARY) +
+                     " community_mapper --project_path " + ShellQuote(ini_path),
+                 &output),
+      0)
       << output;
   EXPECT_EQ(ReadCommunities(JoinPaths(rerun, "communities.txt")),
             ReadCommunities(JoinPaths(*output_path_, "communities.txt")));
@@ -284,9 +281,9 @@ TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
   std::string log;
   ASSERT_EQ(RunCommand(std::string(COLMAP_BINARY) +
                            " community_mapper --database_path " +
-                           ShellQuote(scene.DatabasePath()) +
-                           " --image_path " + ShellQuote(scene.ImagePath()) +
-                           " --output_path " + ShellQuote(community_path),
+                           ShellQuote(scene.DatabasePath()) + " --image_path " +
+                           ShellQuote(scene.ImagePath()) + " --output_path " +
+                           ShellQuote(community_path),
                        &log),
             0)
       << log;
@@ -299,17 +296,16 @@ TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
 
   const std::string mapper_path = JoinPaths(test_dir, "mapper");
   CreateDirIfNotExists(mapper_path);
-  ASSERT_EQ(RunCommand(std::string(COLMAP_BINARY) +
-                           " mapper --database_path " +
-                           ShellQuote(scene.DatabasePath()) +
-                           " --image_path " + ShellQuote(scene.ImagePath()) +
-                           " --output_path " + ShellQuote(mapper_path),
+  ASSERT_EQ(RunCommand(std::string(COLMAP_BINARY) + " mapper --database_path " +
+                           ShellQuote(scene.DatabasePath()) + " --image_path " +
+                           ShellQuote(scene.ImagePath()) + " --output_path " +
+                           ShellQuote(mapper_path),
                        &log),
             0)
       << log;
 
-  const ModelEvaluation community = Evaluate(
-      JoinPaths(community_path, "0"), scene.GroundTruthPath());
+  const ModelEvaluation community =
+      Evaluate(JoinPaths(community_path, "0"), scene.GroundTruthPath());
   const ModelEvaluation mapper =
       Evaluate(JoinPaths(mapper_path, "0"), scene.GroundTruthPath());
   EXPECT_EQ(community.num_registered_images, mapper.num_registered_images);
@@ -317,9 +313,9 @@ TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
   ASSERT_TRUE(mapper.aligned);
   // As good as the mapper: within 1.5x of its median error, or within
   // 0.05% of the extent where both are tiny.
-  EXPECT_LT(community.median_position_error,
-            std::max(1.5 * mapper.median_position_error,
-                     0.0005 * community.extent));
+  EXPECT_LT(
+      community.median_position_error,
+      std::max(1.5 * mapper.median_position_error, 0.0005 * community.extent));
   EXPECT_LT(community.mean_reprojection_error, 1.0);
 }
 

@@ -85,12 +85,10 @@ class CommunityMapperInputTest : public ::testing::Test {
                      const std::string& extra_arguments,
                      const std::string& expected) {
     std::string output;
-    EXPECT_NE(RunCommunityMapper(database_path,
-                                 image_path_,
-                                 output_path_,
-                                 extra_arguments,
-                                 &output),
-              0)
+    EXPECT_NE(
+        RunCommunityMapper(
+            database_path, image_path_, output_path_, extra_arguments, &output),
+        0)
         << output;
     EXPECT_NE(output.find(expected), std::string::npos)
         << "expected \"" << expected << "\" in:\n"
@@ -171,9 +169,8 @@ TEST_F(CommunityMapperInputTest, InvalidOptionValues) {
   ExpectRefusal(good_database_,
                 "--CommunityMapper.edge_weights inliers",
                 "edge_weights is 'inliers': use 'unit' or 'num_inliers'");
-  ExpectRefusal(good_database_,
-                "--CommunityMapper.num_workers 0",
-                "num_workers is 0");
+  ExpectRefusal(
+      good_database_, "--CommunityMapper.num_workers 0", "num_workers is 0");
   ExpectRefusal(good_database_,
                 "--CommunityMapper.image_overlap -1",
                 "image_overlap is -1");
@@ -199,9 +196,9 @@ TEST_F(CommunityMapperInputTest, OutputPathNotWritable) {
     GTEST_SKIP() << "/sys is writable here; cannot test an unwritable path";
   }
   std::string output;
-  EXPECT_NE(RunCommunityMapper(
-                good_database_, image_path_, unwritable, "", &output),
-            0);
+  EXPECT_NE(
+      RunCommunityMapper(good_database_, image_path_, unwritable, "", &output),
+      0);
   EXPECT_NE(output.find("Cannot create --output_path"), std::string::npos)
       << output;
 
@@ -247,9 +244,9 @@ TEST_F(CommunityMapperInputTest, EarlierResultsAreNotReplacedSilently) {
 
 TEST_F(CommunityMapperInputTest, HelpListsEveryOptionWithItsDefault) {
   std::string output;
-  EXPECT_EQ(RunCommand(std::string(COLMAP_BINARY) + " community_mapper -h",
-                       &output),
-            0);
+  EXPECT_EQ(
+      RunCommand(std::string(COLMAP_BINARY) + " community_mapper -h", &output),
+      0);
   for (const std::string option :
        {"--CommunityMapper.modularity_threshold arg (=0.29999",
         "--CommunityMapper.min_community_size arg (=20)",

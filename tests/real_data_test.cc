@@ -48,12 +48,12 @@ std::string PrepareDatabase(const std::string& name) {
                  &output),
       0)
       << output;
-  THROW_CHECK_EQ(RunCommand(std::string(COLMAP_BINARY) +
-                                " exhaustive_matcher --database_path " +
-                                ShellQuote(database) +
-                                " --SiftMatching.use_gpu 0",
-                            &output),
-                 0)
+  THROW_CHECK_EQ(
+      RunCommand(std::string(COLMAP_BINARY) +
+                     " exhaustive_matcher --database_path " +
+                     ShellQuote(database) + " --SiftMatching.use_gpu 0",
+                 &output),
+      0)
       << output;
   std::ofstream(done) << "1\n";
   return database;
@@ -67,9 +67,9 @@ struct MapperRun {
 };
 
 MapperRun RunMapper(const std::string& name,
-              const std::string& database,
-              const std::string& command,
-              const std::string& arguments) {
+                    const std::string& database,
+                    const std::string& command,
+                    const std::string& arguments) {
   MapperRun run;
   run.output_path = JoinPaths(GetParentDir(database), command);
   boost::filesystem::remove_all(run.output_path);
@@ -77,13 +77,12 @@ MapperRun RunMapper(const std::string& name,
   Timer timer;
   timer.Start();
   THROW_CHECK_EQ(
-      RunCommand(std::string(COLMAP_BINARY) + " " + command +
-                     " --database_path " + ShellQuote(database) +
-                     " --image_path " +
-                     ShellQuote(JoinPaths(DatasetPath(name), "images")) +
-                     " --output_path " + ShellQuote(run.output_path) + " " +
-                     arguments,
-                 &run.log),
+      RunCommand(
+          std::string(COLMAP_BINARY) + " " + command + " --database_path " +
+              ShellQuote(database) + " --image_path " +
+              ShellQuote(JoinPaths(DatasetPath(name), "images")) +
+              " --output_path " + ShellQuote(run.output_path) + " " + arguments,
+          &run.log),
       0)
       << run.log;
   run.seconds = timer.ElapsedSeconds();
@@ -95,7 +94,9 @@ MapperRun RunMapper(const std::string& name,
   return run;
 }
 
-void Report(const std::string& name, const MapperRun& community, const MapperRun& mapper) {
+void Report(const std::string& name,
+            const MapperRun& community,
+            const MapperRun& mapper) {
   std::cout << StringPrintf(
                    "%s: community_mapper %.1fs, %d images, median position "
                    "error %.4f m (%.3f%% of %.1f m), rotation %.3f deg, "
@@ -132,16 +133,17 @@ class RealData : public ::testing::Test {
 // verified, so only the inlier-weighted view graph shows the structure.
 TEST_F(RealData, CastleP30SplitsAndMergesAsWellAsTheMapper) {
   const std::string database = PrepareDatabase("castle-P30");
-  const MapperRun community = RunMapper("castle-P30",
-                                  database,
-                                  "community_mapper",
-                                  "--CommunityMapper.edge_weights num_inliers "
-                                  "--CommunityMapper.min_community_size 8");
+  const MapperRun community =
+      RunMapper("castle-P30",
+                database,
+                "community_mapper",
+                "--CommunityMapper.edge_weights num_inliers "
+                "--CommunityMapper.min_community_size 8");
   const MapperRun mapper = RunMapper("castle-P30", database, "mapper", "");
   Report("castle-P30", community, mapper);
 
-  const std::unordered_map<std::string, int> communities = ReadCommunities(
-      JoinPaths(community.output_path, "communities.txt"));
+  const std::unordered_map<std::string, int> communities =
+      ReadCommunities(JoinPaths(community.output_path, "communities.txt"));
   std::set<int> ids;
   for (const auto& entry : communities) {
     ids.insert(entry.second);
@@ -166,8 +168,8 @@ TEST_F(RealData, HerzJesusP25IsOneCommunity) {
   const MapperRun mapper = RunMapper("Herz-Jesus-P25", database, "mapper", "");
   Report("Herz-Jesus-P25", community, mapper);
 
-  const std::unordered_map<std::string, int> communities = ReadCommunities(
-      JoinPaths(community.output_path, "communities.txt"));
+  const std::unordered_map<std::string, int> communities =
+      ReadCommunities(JoinPaths(community.output_path, "communities.txt"));
   EXPECT_EQ(communities.size(), 25);
   for (const auto& entry : communities) {
     EXPECT_EQ(entry.second, 0);

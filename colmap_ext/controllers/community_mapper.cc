@@ -25,6 +25,7 @@ using Models = std::vector<std::shared_ptr<Reconstruction>>;
 struct CommunityImages {
   std::vector<std::unordered_set<image_t>> own_image_ids;
   std::vector<std::unordered_set<std::string>> image_names;
+  std::unordered_map<image_t, std::string> name_of_image;
 };
 
 CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
@@ -35,8 +36,9 @@ CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
   groups.own_image_ids.resize(partition.NumCommunities());
   groups.image_names.resize(partition.NumCommunities());
   for (size_t vertex = 0; vertex < view_graph.NumVertices(); ++vertex) {
-    groups.own_image_ids[partition.membership[vertex]].insert(
-        view_graph.ImageIds()[vertex]);
+    const image_t image_id = view_graph.ImageIds()[vertex];
+    groups.own_image_ids[partition.membership[vertex]].insert(image_id);
+    groups.name_of_image.emplace(image_id, view_graph.ImageNames()[vertex]);
   }
   const std::vector<std::vector<int>> extended =
       ExtendCommunities(graph, partition, image_overlap);
@@ -52,10 +54,9 @@ CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
 // once, largest first. A community yielding several models keeps the
 // largest; one yielding none gets nullptr. Models are written to
 // output_path/communities/K as they finish (if output_path is set).
-Models ReconstructCommunities(
-    const CommunityMapperController::Options& options,
-    const CommunityImages& communities,
-    CommunityMapperController::Summary* summary) {
+Models ReconstructCommunities(const CommunityMapperController::Options& options,
+                              const CommunityImages& communities,
+                              CommunityMapperController::Summary* summary) {
   const int num_communities =
       static_cast<int>(communities.own_image_ids.size());
   const int num_threads = GetEffectiveNumThreads(-1);
@@ -264,6 +265,141 @@ std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
   return similarities;
 }
 
+// Joins the communities of one part (connected by kept similarities) into
+// one model in the global frame, merges their corresponding points and
+// refines the result on the part's images. The communities' own models are
+// consumed.
+std::shared_ptr<Reconstruction> MergePart(
+    const CommunityMapperController::Options& options,
+    const std::vector<int>& part_communities,
+    const CommunityImages& communities,
+    const std::vector<RelativeSimilarity>& similarities,
+    const std::vector<std::vector<std::pair<point3D_t, point3D_t>>>&
+        inlier_point3D_ids,
+    const SimilarityAveragingResult& averaging,
+    Models* models) {
+  LOG(INFO) << "Merging communities" << [&] {
+    std::string ids;
+    for (const int c : part_communities) ids += " " + std::to_string(c);
+    return ids;
+  }();
+  std::vector<Reconstruction*> part_models;
+  std::vector<Sim3d> world_from_community;
+  std::vector<std::unordered_set<image_t>> owned_image_ids;
+  std::unordered_set<std::string> part_image_names;
+  std::map<int, size_t> index_in_part;
+  for (const int c : part_communities) {
+    index_in_part.emplace(c, part_models.size());
+    part_models.push_back((*models)[c].get());
+    world_from_community.push_back(averaging.world_from_community[c]);
+    owned_image_ids.push_back(communities.own_image_ids[c]);
+    for (const image_t image_id : communities.own_image_ids[c]) {
+      part_image_names.insert(communities.name_of_image.at(image_id));
+    }
+  }
+  auto merged = std::make_shared<Reconstruction>();
+  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
+  JoinReconstructions(part_models,
+                      world_from_community,
+                      owned_image_ids,
+                      merged.get(),
+                      &point3D_ids);
+  for (const int c : part_communities) {
+    (*models)[c].reset();  // Joined: the community's copy is not needed.
+  }
+
+  std::vector<std::pair<point3D_t, point3D_t>> corresponding_points;
+  for (size_t e = 0; e < similarities.size(); ++e) {
+    if (!averaging.edges[e].kept ||
+        averaging.part_of_community[similarities[e].community1] !=
+            averaging.part_of_community[part_communities[0]]) {
+      continue;
+    }
+    const auto& ids1 =
+        point3D_ids[index_in_part.at(similarities[e].community1)];
+    const auto& ids2 =
+        point3D_ids[index_in_part.at(similarities[e].community2)];
+    for (const auto& pair : inlier_point3D_ids[e]) {
+      const auto it1 = ids1.find(pair.first);
+      const auto it2 = ids2.find(pair.second);
+      if (it1 != ids1.end() && it2 != ids2.end()) {
+        corresponding_points.emplace_back(it1->second, it2->second);
+      }
+    }
+  }
+  const size_t num_merged_points =
+      MergeCorrespondingPoints(corresponding_points, merged.get());
+  LOG(INFO) << StringPrintf(
+      "Joined %d images and %d points; merged %d corresponding points",
+      static_cast<int>(merged->NumRegImages()),
+      static_cast<int>(merged->NumPoints3D()),
+      static_cast<int>(num_merged_points));
+
+  std::shared_ptr<DatabaseCache> database_cache;
+  {
+    const Database database(options.database_path);
+    database_cache = DatabaseCache::Create(
+        database,
+        static_cast<size_t>(options.incremental_options.min_num_matches),
+        options.incremental_options.ignore_watermarks,
+        part_image_names);
+  }
+  const MergedModelRefinementSummary refinement =
+      RefineMergedModel(options.refinement,
+                        options.incremental_options,
+                        std::move(database_cache),
+                        merged);
+  LOG(INFO) << StringPrintf(
+      "Merged model: %d images, %d points, mean reprojection error %.3f px "
+      "(%.3f px before refinement), %d images newly registered",
+      static_cast<int>(merged->NumRegImages()),
+      static_cast<int>(merged->NumPoints3D()),
+      refinement.final_mean_reprojection_error,
+      refinement.initial_mean_reprojection_error,
+      refinement.num_newly_registered_images);
+  if (options.incremental_options.extract_colors) {
+    merged->ExtractColorsForAllImages(options.image_path);
+  }
+  return merged;
+}
+
+// The closing summary of a run.
+void LogSummary(const CommunityMapperController::Summary& summary) {
+  PrintHeading1("Community mapper summary");
+  for (size_t c = 0; c < summary.community_sizes.size(); ++c) {
+    LOG(INFO) << StringPrintf("Community %d: %d images, %d registered%s",
+                              static_cast<int>(c),
+                              summary.community_sizes[c],
+                              summary.community_num_registered[c],
+                              summary.community_num_models[c] > 1
+                                  ? " (largest of several models)"
+                                  : "");
+  }
+  LOG(INFO) << StringPrintf(
+      "Community pairs: %d joined by view-graph edges, %d with a similarity, "
+      "%d kept, %d dropped",
+      summary.num_community_pairs,
+      summary.num_estimated_similarities,
+      summary.num_kept_similarities,
+      summary.num_estimated_similarities - summary.num_kept_similarities);
+  int num_registered = 0;
+  for (size_t m = 0; m < summary.model_num_registered.size(); ++m) {
+    LOG(INFO) << StringPrintf("Model %d: %d images",
+                              static_cast<int>(m),
+                              summary.model_num_registered[m]);
+    num_registered += summary.model_num_registered[m];
+  }
+  LOG(INFO) << StringPrintf(
+      "Registered %d of %d images in %d model(s)",
+      num_registered,
+      summary.num_view_graph_images,
+      static_cast<int>(summary.model_num_registered.size()));
+  for (const auto& phase : summary.phase_seconds) {
+    LOG(INFO) << StringPrintf(
+        "Time %-28s %9.3fs", (phase.first + ":").c_str(), phase.second);
+  }
+}
+
 }  // namespace
 
 int CommunityMapperController::Options::MinNumMatches() const {
@@ -301,8 +437,8 @@ void CommunityMapperController::Run() {
   Timer phase_timer;
   auto end_phase = [&](const std::string& name) {
     summary_.phase_seconds.emplace_back(name, phase_timer.ElapsedSeconds());
-    LOG(INFO) << StringPrintf("%s: %.3fs", name.c_str(),
-                              phase_timer.ElapsedSeconds());
+    LOG(INFO) << StringPrintf(
+        "%s: %.3fs", name.c_str(), phase_timer.ElapsedSeconds());
   };
 
   //////////////////////////////////////////////////////////////////////////////
@@ -314,8 +450,8 @@ void CommunityMapperController::Run() {
 
   const ViewGraphEdgeWeight edge_weight =
       ViewGraphEdgeWeightFromString(options_.edge_weights);
-  const ViewGraph view_graph = ViewGraph::Read(
-      Database(options_.database_path), options_.MinNumMatches());
+  const ViewGraph view_graph = ViewGraph::Read(Database(options_.database_path),
+                                               options_.MinNumMatches());
   const WeightedGraph graph = view_graph.ToWeightedGraph(edge_weight);
   const std::vector<std::vector<int>> components = graph.ConnectedComponents();
   summary_.num_view_graph_images = static_cast<int>(view_graph.NumVertices());
@@ -348,11 +484,6 @@ void CommunityMapperController::Run() {
     summary_.community_of_image.emplace(view_graph.ImageIds()[vertex],
                                         partition.membership[vertex]);
   }
-  std::unordered_map<image_t, std::string> image_names;
-  for (size_t vertex = 0; vertex < view_graph.NumVertices(); ++vertex) {
-    image_names.emplace(view_graph.ImageIds()[vertex],
-                        view_graph.ImageNames()[vertex]);
-  }
   std::string sizes;
   for (const auto& image_ids : communities.own_image_ids) {
     summary_.community_sizes.push_back(static_cast<int>(image_ids.size()));
@@ -365,13 +496,11 @@ void CommunityMapperController::Run() {
       options_.min_community_size,
       sizes.c_str());
   if (!options_.output_path.empty()) {
-    const std::string path =
-        JoinPaths(options_.output_path, "communities.txt");
-    WriteTextFileAtomically(CommunitiesToText(view_graph,
-                                              partition,
-                                              options_.modularity_threshold,
-                                              edge_weight),
-                            path);
+    const std::string path = JoinPaths(options_.output_path, "communities.txt");
+    WriteTextFileAtomically(
+        CommunitiesToText(
+            view_graph, partition, options_.modularity_threshold, edge_weight),
+        path);
     LOG(INFO) << "Wrote " << path;
   }
   end_phase("Partition");
@@ -406,10 +535,10 @@ void CommunityMapperController::Run() {
                                    models,
                                    &inlier_point3D_ids,
                                    &summary_);
-  const SimilarityAveragingResult averaging = AverageSimilarities(
-      summary_.community_num_registered,
-      similarities,
-      options_.similarity_averaging);
+  const SimilarityAveragingResult averaging =
+      AverageSimilarities(summary_.community_num_registered,
+                          similarities,
+                          options_.similarity_averaging);
   for (size_t e = 0; e < similarities.size(); ++e) {
     const auto& report = averaging.edges[e];
     summary_.num_kept_similarities += report.kept ? 1 : 0;
@@ -447,88 +576,13 @@ void CommunityMapperController::Run() {
       continue;
     }
 
-    LOG(INFO) << "Merging communities" << [&] {
-      std::string ids;
-      for (const int c : part_communities) ids += " " + std::to_string(c);
-      return ids;
-    }();
-    std::vector<Reconstruction*> part_models;
-    std::vector<Sim3d> world_from_community;
-    std::vector<std::unordered_set<image_t>> owned_image_ids;
-    std::unordered_set<std::string> part_image_names;
-    std::map<int, size_t> index_in_part;
-    for (const int c : part_communities) {
-      index_in_part.emplace(c, part_models.size());
-      part_models.push_back(models[c].get());
-      world_from_community.push_back(averaging.world_from_community[c]);
-      owned_image_ids.push_back(communities.own_image_ids[c]);
-      for (const image_t image_id : communities.own_image_ids[c]) {
-        part_image_names.insert(image_names.at(image_id));
-      }
-    }
-    auto merged = std::make_shared<Reconstruction>();
-    std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
-    JoinReconstructions(part_models,
-                        world_from_community,
-                        owned_image_ids,
-                        merged.get(),
-                        &point3D_ids);
-    for (const int c : part_communities) {
-      models[c].reset();  // Joined: the community's copy is not needed.
-    }
-
-    std::vector<std::pair<point3D_t, point3D_t>> corresponding_points;
-    for (size_t e = 0; e < similarities.size(); ++e) {
-      if (!averaging.edges[e].kept ||
-          averaging.part_of_community[similarities[e].community1] != part) {
-        continue;
-      }
-      const auto& ids1 =
-          point3D_ids[index_in_part.at(similarities[e].community1)];
-      const auto& ids2 =
-          point3D_ids[index_in_part.at(similarities[e].community2)];
-      for (const auto& pair : inlier_point3D_ids[e]) {
-        const auto it1 = ids1.find(pair.first);
-        const auto it2 = ids2.find(pair.second);
-        if (it1 != ids1.end() && it2 != ids2.end()) {
-          corresponding_points.emplace_back(it1->second, it2->second);
-        }
-      }
-    }
-    const size_t num_merged_points =
-        MergeCorrespondingPoints(corresponding_points, merged.get());
-    LOG(INFO) << StringPrintf(
-        "Joined %d images and %d points; merged %d corresponding points",
-        static_cast<int>(merged->NumRegImages()),
-        static_cast<int>(merged->NumPoints3D()),
-        static_cast<int>(num_merged_points));
-
-    std::shared_ptr<DatabaseCache> database_cache;
-    {
-      const Database database(options_.database_path);
-      database_cache = DatabaseCache::Create(
-          database,
-          static_cast<size_t>(options_.incremental_options.min_num_matches),
-          options_.incremental_options.ignore_watermarks,
-          part_image_names);
-    }
-    const MergedModelRefinementSummary refinement =
-        RefineMergedModel(options_.refinement,
-                          options_.incremental_options,
-                          std::move(database_cache),
-                          merged);
-    LOG(INFO) << StringPrintf(
-        "Merged model: %d images, %d points, mean reprojection error %.3f px "
-        "(%.3f px before refinement), %d images newly registered",
-        static_cast<int>(merged->NumRegImages()),
-        static_cast<int>(merged->NumPoints3D()),
-        refinement.final_mean_reprojection_error,
-        refinement.initial_mean_reprojection_error,
-        refinement.num_newly_registered_images);
-    if (options_.incremental_options.extract_colors) {
-      merged->ExtractColorsForAllImages(options_.image_path);
-    }
-    merged_models.push_back(merged);
+    merged_models.push_back(MergePart(options_,
+                                      part_communities,
+                                      communities,
+                                      similarities,
+                                      inlier_point3D_ids,
+                                      averaging,
+                                      &models));
   }
 
   std::stable_sort(merged_models.begin(),
@@ -543,8 +597,7 @@ void CommunityMapperController::Run() {
     reconstruction_manager_->Get(reconstruction_manager_->Add()) = model;
   }
   if (!options_.output_path.empty() && !merged_models.empty()) {
-    const std::string path =
-        JoinPaths(options_.output_path, "communities.ply");
+    const std::string path = JoinPaths(options_.output_path, "communities.ply");
     WriteTextFileAtomically(
         CommunityCamerasToPly(*merged_models[0], summary_.community_of_image),
         path);
@@ -555,38 +608,7 @@ void CommunityMapperController::Run() {
   // Summary
   //////////////////////////////////////////////////////////////////////////////
 
-  PrintHeading1("Community mapper summary");
-  for (size_t c = 0; c < summary_.community_sizes.size(); ++c) {
-    LOG(INFO) << StringPrintf("Community %d: %d images, %d registered%s",
-                              static_cast<int>(c),
-                              summary_.community_sizes[c],
-                              summary_.community_num_registered[c],
-                              summary_.community_num_models[c] > 1
-                                  ? " (largest of several models)"
-                                  : "");
-  }
-  LOG(INFO) << StringPrintf(
-      "Community pairs: %d joined by view-graph edges, %d with a similarity, "
-      "%d kept, %d dropped",
-      summary_.num_community_pairs,
-      summary_.num_estimated_similarities,
-      summary_.num_kept_similarities,
-      summary_.num_estimated_similarities - summary_.num_kept_similarities);
-  int num_registered = 0;
-  for (size_t m = 0; m < summary_.model_num_registered.size(); ++m) {
-    LOG(INFO) << StringPrintf("Model %d: %d images",
-                              static_cast<int>(m),
-                              summary_.model_num_registered[m]);
-    num_registered += summary_.model_num_registered[m];
-  }
-  LOG(INFO) << StringPrintf("Registered %d of %d images in %d model(s)",
-                            num_registered,
-                            summary_.num_view_graph_images,
-                            static_cast<int>(merged_models.size()));
-  for (const auto& phase : summary_.phase_seconds) {
-    LOG(INFO) << StringPrintf(
-        "Time %-28s %9.3fs", (phase.first + ":").c_str(), phase.second);
-  }
+  LogSummary(summary_);
   run_timer.PrintMinutes();
 }
 

@@ -270,9 +270,8 @@ bool RunCommunityMapperImpl(const CommunityMapperController::Options& options,
       return false;
     }
     for (size_t i = 0; i < reconstruction_manager->Size(); ++i) {
-      WriteReconstructionAtomically(
-          *reconstruction_manager->Get(i),
-          JoinPaths(output_path, std::to_string(i)));
+      WriteReconstructionAtomically(*reconstruction_manager->Get(i),
+                                    JoinPaths(output_path, std::to_string(i)));
     }
     // Models of an earlier run beyond the new ones would mix with them.
     for (size_t i = reconstruction_manager->Size();
@@ -284,14 +283,13 @@ bool RunCommunityMapperImpl(const CommunityMapperController::Options& options,
       WriteTextFileAtomically(project_ini,
                               JoinPaths(output_path, "project.ini"));
     }
-    outputs.push_back(JoinPaths(output_path, "0") +
-                      (reconstruction_manager->Size() > 1
-                           ? " .. " + std::to_string(
-                                          reconstruction_manager->Size() - 1)
-                           : std::string()) +
-                      " (the merged model" +
-                      (reconstruction_manager->Size() > 1 ? "s" : "") +
-                      ", largest first)");
+    outputs.push_back(
+        JoinPaths(output_path, "0") +
+        (reconstruction_manager->Size() > 1
+             ? " .. " + std::to_string(reconstruction_manager->Size() - 1)
+             : std::string()) +
+        " (the merged model" + (reconstruction_manager->Size() > 1 ? "s" : "") +
+        ", largest first)");
     outputs.push_back(JoinPaths(output_path, "communities", "K") +
                       " (each community's own model)");
     outputs.push_back(JoinPaths(output_path, "communities.ply") +
@@ -326,8 +324,9 @@ int RunCommunityMapper(int argc, char** argv) {
   std::vector<std::function<void()>> ini_writers;
   auto add = [&](const std::string& name, auto* value, const char* help) {
     options.AddDefaultOption("CommunityMapper." + name, value, help);
-    ini_writers.push_back(
-        [&ini_section, name, value] { ini_section << name << "=" << *value << "\n"; });
+    ini_writers.push_back([&ini_section, name, value] {
+      ini_section << name << "=" << *value << "\n";
+    });
   };
   add("modularity_threshold",
       &mapper_options.modularity_threshold,
@@ -412,8 +411,8 @@ int RunCommunityMapper(int argc, char** argv) {
       write();
     }
     // output_path first: options outside any section precede the sections.
-    project_ini = "output_path=" + output_path + "\n" + text.str() +
-                  ini_section.str();
+    project_ini =
+        "output_path=" + output_path + "\n" + text.str() + ini_section.str();
   }
 
   return RunCommunityMapperImpl(mapper_options, overwrite, project_ini)

@@ -12,10 +12,10 @@
 namespace colmap {
 namespace {
 
-#define IGRAPH_CALL(expr)                                                \
-  do {                                                                   \
-    const igraph_error_t igraph_status = (expr);                         \
-    THROW_CHECK_EQ(igraph_status, IGRAPH_SUCCESS)                        \
+#define IGRAPH_CALL(expr)                                                 \
+  do {                                                                    \
+    const igraph_error_t igraph_status = (expr);                          \
+    THROW_CHECK_EQ(igraph_status, IGRAPH_SUCCESS)                         \
         << "igraph: " << #expr << ": " << igraph_strerror(igraph_status); \
   } while (false)
 
@@ -214,8 +214,7 @@ GraphPartitioner::Result GreedyModularityPartitioner::Partition(
   }
   result.membership = RelabelBySize(result.membership);
   result.num_communities =
-      1 + *std::max_element(result.membership.begin(),
-                            result.membership.end());
+      1 + *std::max_element(result.membership.begin(), result.membership.end());
   return result;
 }
 
@@ -388,8 +387,8 @@ std::vector<std::vector<int>> ExtendCommunities(
       int best = -1;
       for (const auto& vertex_and_link : links) {
         const int vertex = vertex_and_link.first;
-        if (inside[vertex] || num_added[membership[vertex]] >=
-                                  num_overlap_images) {
+        if (inside[vertex] ||
+            num_added[membership[vertex]] >= num_overlap_images) {
           continue;
         }
         if (best == -1 || vertex_and_link.second.first > links[best].first ||

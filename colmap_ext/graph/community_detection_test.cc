@@ -127,9 +127,8 @@ TEST(GreedyModularityPartitioner, ZacharyKarateClubQmax) {
   // Q = 0.3807 with three communities.
   EXPECT_NEAR(result.modularity, 0.3807, 1e-4);
   EXPECT_EQ(result.num_communities, 3);
-  EXPECT_NEAR(ComputeModularity(graph, result.membership),
-              result.modularity,
-              1e-9);
+  EXPECT_NEAR(
+      ComputeModularity(graph, result.membership), result.modularity, 1e-9);
 }
 
 TEST(DetectCommunities, SmallCommunityMergedIntoNeighbourWithMostCrossEdges) {
@@ -244,10 +243,8 @@ class HalvingPartitioner : public GraphPartitioner {
     Result result;
     result.membership.resize(graph.num_vertices);
     for (int i = 0; i < graph.num_vertices; ++i) {
-      result.membership[i] = (graph.num_vertices > 8 &&
-                              i >= graph.num_vertices / 2)
-                                 ? 1
-                                 : 0;
+      result.membership[i] =
+          (graph.num_vertices > 8 && i >= graph.num_vertices / 2) ? 1 : 0;
     }
     result.num_communities = graph.num_vertices > 8 ? 2 : 1;
     result.modularity = graph.num_vertices > 8 ? modularity_ : 0.0;
@@ -301,8 +298,10 @@ TEST(DetectCommunities, IsolatedVerticesAndEmptyGraph) {
   EXPECT_EQ(partition.NumCommunities(), 3);
   EXPECT_TRUE(partition.splits.empty());
 
-  const CommunityPartition empty = DetectCommunities(
-      WeightedGraph(), GreedyModularityPartitioner(), CommunityDetectionOptions());
+  const CommunityPartition empty =
+      DetectCommunities(WeightedGraph(),
+                        GreedyModularityPartitioner(),
+                        CommunityDetectionOptions());
   EXPECT_EQ(empty.NumCommunities(), 0);
 }
 

@@ -157,12 +157,11 @@ WeightedGraph ViewGraph::ToWeightedGraph(
   graph.num_vertices = static_cast<int>(image_ids_.size());
   graph.edges.reserve(edges_.size());
   for (const Edge& edge : edges_) {
-    graph.edges.push_back(
-        {edge.vertex1,
-         edge.vertex2,
-         weight == ViewGraphEdgeWeight::kUnit
-             ? 1.0
-             : static_cast<double>(edge.num_inliers)});
+    graph.edges.push_back({edge.vertex1,
+                           edge.vertex2,
+                           weight == ViewGraphEdgeWeight::kUnit
+                               ? 1.0
+                               : static_cast<double>(edge.num_inliers)});
   }
   return graph;
 }

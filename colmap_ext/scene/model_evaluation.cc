@@ -47,8 +47,8 @@ ModelEvaluation EvaluateModel(const Reconstruction& model,
 
   // Shared registered images, by name.
   std::map<std::string, std::pair<const Image*, const Image*>> shared;
-  Eigen::Vector3d min_corner = Eigen::Vector3d::Constant(
-      std::numeric_limits<double>::max());
+  Eigen::Vector3d min_corner =
+      Eigen::Vector3d::Constant(std::numeric_limits<double>::max());
   Eigen::Vector3d max_corner = -min_corner;
   for (const image_t image_id : ground_truth.RegImageIds()) {
     const Image& gt_image = ground_truth.Image(image_id);
@@ -102,8 +102,8 @@ ModelEvaluation EvaluateModel(const Reconstruction& model,
     evaluation.ground_truth_centers.push_back(gt_image.ProjectionCenter());
     evaluation.position_errors.push_back(
         (aligned_center - gt_image.ProjectionCenter()).norm());
-    evaluation.rotation_errors_deg.push_back(RadToDeg(
-        gt_image.CamFromWorld().rotation.angularDistance(
+    evaluation.rotation_errors_deg.push_back(
+        RadToDeg(gt_image.CamFromWorld().rotation.angularDistance(
             aligned_cam_from_world)));
   }
   evaluation.median_position_error = Quantile(evaluation.position_errors, 0.5);
@@ -119,8 +119,8 @@ std::string ModelEvaluationToString(const ModelEvaluation& evaluation) {
   std::string text;
   text += StringPrintf("ground_truth_images %d\n",
                        evaluation.num_ground_truth_images);
-  text += StringPrintf("registered_images %d\n",
-                       evaluation.num_registered_images);
+  text +=
+      StringPrintf("registered_images %d\n", evaluation.num_registered_images);
   text += StringPrintf("points3D %d\n", evaluation.num_points3D);
   text += StringPrintf("mean_reprojection_error_px %.6f\n",
                        evaluation.mean_reprojection_error);
@@ -128,10 +128,10 @@ std::string ModelEvaluationToString(const ModelEvaluation& evaluation) {
   text += StringPrintf("extent %.6f\n", evaluation.extent);
   text += StringPrintf("median_position_error %.6f\n",
                        evaluation.median_position_error);
-  text += StringPrintf("p90_position_error %.6f\n",
-                       evaluation.p90_position_error);
-  text += StringPrintf("max_position_error %.6f\n",
-                       evaluation.max_position_error);
+  text +=
+      StringPrintf("p90_position_error %.6f\n", evaluation.p90_position_error);
+  text +=
+      StringPrintf("max_position_error %.6f\n", evaluation.max_position_error);
   text += StringPrintf("median_position_error_fraction %.8f\n",
                        evaluation.median_position_error / extent);
   text += StringPrintf("p90_position_error_fraction %.8f\n",

@@ -43,13 +43,14 @@ class Random {
     return stddev * std::sqrt(-2.0 * std::log(u1)) * std::cos(2 * M_PI * u2);
   }
   int Integer(int min, int max) {  // inclusive
-    return min + static_cast<int>(engine_() % static_cast<uint64_t>(
-                                                  max - min + 1));
+    return min +
+           static_cast<int>(engine_() % static_cast<uint64_t>(max - min + 1));
   }
   template <typename T>
   void Shuffle(std::vector<T>* values) {
     for (size_t i = values->size(); i > 1; --i) {
-      std::swap((*values)[i - 1], (*values)[Integer(0, static_cast<int>(i) - 1)]);
+      std::swap((*values)[i - 1],
+                (*values)[Integer(0, static_cast<int>(i) - 1)]);
     }
   }
 
@@ -206,10 +207,11 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
     const Eigen::Vector2d left(-along.y(), along.x());
     const double length = (to - from).norm();
     for (int i = 0; i < options.num_points_per_link; ++i) {
-      const Eigen::Vector2d xy = from + random.Uniform(0, length) * along +
-                                 kTowerRadius * left;
+      const Eigen::Vector2d xy =
+          from + random.Uniform(0, length) * along + kTowerRadius * left;
       ScenePoint point;
-      point.xyz = Eigen::Vector3d(xy.x(), xy.y(), random.Uniform(0, kWallHeight));
+      point.xyz =
+          Eigen::Vector3d(xy.x(), xy.y(), random.Uniform(0, kWallHeight));
       point.normal = Eigen::Vector3d(-left.x(), -left.y(), 0);
       points.push_back(point);
     }
@@ -225,10 +227,9 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
     for (int i = 0; i < options.num_images_per_cluster; ++i) {
       const double angle = random.Uniform(0, 2 * M_PI);
       const double radius = random.Uniform(kRingMinRadius, kRingMaxRadius);
-      const Eigen::Vector3d center(
-          towers[c].x() + radius * std::cos(angle),
-          towers[c].y() + radius * std::sin(angle),
-          kCameraHeight + random.Uniform(-0.3, 0.3));
+      const Eigen::Vector3d center(towers[c].x() + radius * std::cos(angle),
+                                   towers[c].y() + radius * std::sin(angle),
+                                   kCameraHeight + random.Uniform(-0.3, 0.3));
       const Eigen::Vector3d target(towers[c].x() + random.Uniform(-2, 2),
                                    towers[c].y() + random.Uniform(-2, 2),
                                    random.Uniform(3, 8));
@@ -253,10 +254,10 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
           (kTowerRadius - kWallDistance + random.Uniform(-1, 1)) * left;
       const Eigen::Vector3d center(
           xy.x(), xy.y(), kCameraHeight + random.Uniform(-0.2, 0.2));
-      const double turn = kMaxWalkwayTurnDeg *
-                              (std::max(0.0, (t - 0.75) / 0.25) -
-                               std::max(0.0, 1.0 - t / 0.25)) +
-                          random.Uniform(-10, 10);
+      const double turn =
+          kMaxWalkwayTurnDeg * (std::max(0.0, (t - 0.75) / 0.25) -
+                                std::max(0.0, 1.0 - t / 0.25)) +
+          random.Uniform(-10, 10);
       const Eigen::Vector2d heading = std::cos(turn * kDegToRad) * left +
                                       std::sin(turn * kDegToRad) * along;
       const Eigen::Vector3d target =
@@ -281,10 +282,10 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
                                   options.image_height);
   auto add_camera = [&]() {
     Camera camera = camera_template;
-    camera.camera_id = database != nullptr
-                           ? database->WriteCamera(camera)
-                           : static_cast<camera_t>(reconstruction.NumCameras() +
-                                                   1);
+    camera.camera_id =
+        database != nullptr
+            ? database->WriteCamera(camera)
+            : static_cast<camera_t>(reconstruction.NumCameras() + 1);
     reconstruction.AddCamera(camera);
     return camera.camera_id;
   };
@@ -294,7 +295,8 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
     reconstruction.Point3D(static_cast<point3D_t>(i + 1)).xyz = points[i].xyz;
   }
 
-  const double min_cos_surface = std::cos(kMaxSurfaceViewingAngleDeg * kDegToRad);
+  const double min_cos_surface =
+      std::cos(kMaxSurfaceViewingAngleDeg * kDegToRad);
   camera_t shared_camera_id = kInvalidCameraId;
   // Per image: the ids of the observed points, sorted, with their keypoint.
   std::vector<std::vector<std::pair<point3D_t, point2D_t>>> observations;
@@ -313,8 +315,8 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
       camera_id = add_camera();
     }
     const Camera& camera = reconstruction.Camera(camera_id);
-    const Eigen::Vector3d center =
-        pose.cam_from_world.rotation.inverse() * -pose.cam_from_world.translation;
+    const Eigen::Vector3d center = pose.cam_from_world.rotation.inverse() *
+                                   -pose.cam_from_world.translation;
 
     std::vector<Point2D> points2D;
     for (size_t i = 0; i < points.size(); ++i) {
@@ -444,8 +446,8 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
     }
     random.Shuffle(&free1);
     random.Shuffle(&free2);
-    const size_t num_added = std::min<size_t>(
-        num_matches, std::min(free1.size(), free2.size()));
+    const size_t num_added =
+        std::min<size_t>(num_matches, std::min(free1.size(), free2.size()));
     for (size_t i = 0; i < num_added; ++i) {
       matches->emplace_back(free1[i], free2[i]);
     }
@@ -494,12 +496,11 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
       if (database == nullptr) {
         continue;
       }
-      add_random_matches(
-          idx1,
-          idx2,
-          static_cast<int>(
-              std::round(options.outlier_match_ratio * matches.size())),
-          &matches);
+      add_random_matches(idx1,
+                         idx2,
+                         static_cast<int>(std::round(
+                             options.outlier_match_ratio * matches.size())),
+                         &matches);
       random.Shuffle(&matches);
       TwoViewGeometry two_view_geometry = two_view_geometry_of(idx1, idx2);
       two_view_geometry.inlier_matches = matches;

@@ -68,7 +68,8 @@ TEST(SynthesizeCommunityScene, DatabaseMatchesGroundTruth) {
   for (const auto& image_and_cluster : scene.image_cluster) {
     ++cluster_sizes[image_and_cluster.second];
   }
-  EXPECT_EQ(cluster_sizes, (std::map<int, int>{{-1, 30}, {0, 12}, {1, 12}, {2, 12}}));
+  EXPECT_EQ(cluster_sizes,
+            (std::map<int, int>{{-1, 30}, {0, 12}, {1, 12}, {2, 12}}));
 
   // Keypoints are the ground truth's points2D, which reproject within the
   // noise.

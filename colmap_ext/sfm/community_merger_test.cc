@@ -45,15 +45,14 @@ class JoinReconstructionsTest : public ::testing::Test {
     for (int i = 0; i < 3; ++i, ++it) {
       images1_.insert(*it);
     }
-    community_from_world_ = {
-        Sim3d(0.5,
-              Eigen::Quaterniond(
-                  Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY())),
-              Eigen::Vector3d(3, 0, -1)),
-        Sim3d(3.0,
-              Eigen::Quaterniond(
-                  Eigen::AngleAxisd(2.0, Eigen::Vector3d::UnitZ())),
-              Eigen::Vector3d(0, 10, 0))};
+    community_from_world_ = {Sim3d(0.5,
+                                   Eigen::Quaterniond(Eigen::AngleAxisd(
+                                       0.4, Eigen::Vector3d::UnitY())),
+                                   Eigen::Vector3d(3, 0, -1)),
+                             Sim3d(3.0,
+                                   Eigen::Quaterniond(Eigen::AngleAxisd(
+                                       2.0, Eigen::Vector3d::UnitZ())),
+                                   Eigen::Vector3d(0, 10, 0))};
   }
 
   SyntheticScene scene_;
@@ -65,22 +64,22 @@ class JoinReconstructionsTest : public ::testing::Test {
 };
 
 TEST_F(JoinReconstructionsTest, RecoversTheScene) {
-  Reconstruction model1 = CommunityModel(
-      scene_.ground_truth, images1_, community_from_world_[0]);
-  Reconstruction model2 = CommunityModel(
-      scene_.ground_truth, images2_, community_from_world_[1]);
+  Reconstruction model1 =
+      CommunityModel(scene_.ground_truth, images1_, community_from_world_[0]);
+  Reconstruction model2 =
+      CommunityModel(scene_.ground_truth, images2_, community_from_world_[1]);
   // Community 2 refined the shared camera differently.
   const camera_t camera_id = model2.Cameras().begin()->first;
   model2.Camera(camera_id).params[0] *= 1.01;
 
   Reconstruction merged;
   std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
-  JoinReconstructions({&model1, &model2},
-                      {Inverse(community_from_world_[0]),
-                       Inverse(community_from_world_[1])},
-                      {owned1_, owned2_},
-                      &merged,
-                      &point3D_ids);
+  JoinReconstructions(
+      {&model1, &model2},
+      {Inverse(community_from_world_[0]), Inverse(community_from_world_[1])},
+      {owned1_, owned2_},
+      &merged,
+      &point3D_ids);
 
   EXPECT_EQ(merged.NumRegImages(), scene_.ground_truth.NumRegImages());
   // Every image's pose is the truth's.
@@ -118,18 +117,18 @@ TEST_F(JoinReconstructionsTest, RecoversTheScene) {
 }
 
 TEST_F(JoinReconstructionsTest, MergesCorrespondingPoints) {
-  Reconstruction model1 = CommunityModel(
-      scene_.ground_truth, images1_, community_from_world_[0]);
-  Reconstruction model2 = CommunityModel(
-      scene_.ground_truth, images2_, community_from_world_[1]);
+  Reconstruction model1 =
+      CommunityModel(scene_.ground_truth, images1_, community_from_world_[0]);
+  Reconstruction model2 =
+      CommunityModel(scene_.ground_truth, images2_, community_from_world_[1]);
   Reconstruction merged;
   std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
-  JoinReconstructions({&model1, &model2},
-                      {Inverse(community_from_world_[0]),
-                       Inverse(community_from_world_[1])},
-                      {owned1_, owned2_},
-                      &merged,
-                      &point3D_ids);
+  JoinReconstructions(
+      {&model1, &model2},
+      {Inverse(community_from_world_[0]), Inverse(community_from_world_[1])},
+      {owned1_, owned2_},
+      &merged,
+      &point3D_ids);
 
   // The two communities' copies of the same ground-truth point correspond.
   std::vector<std::pair<point3D_t, point3D_t>> pairs;

@@ -96,10 +96,10 @@ class PairwiseSimilarityTest : public ::testing::Test {
 };
 
 TEST_F(PairwiseSimilarityTest, MatchesGroundTruth) {
-  Reconstruction model1 = CommunityModel(
-      scene_.ground_truth, images1_, community1_from_world_);
-  Reconstruction model2 = CommunityModel(
-      scene_.ground_truth, images2_, community2_from_world_);
+  Reconstruction model1 =
+      CommunityModel(scene_.ground_truth, images1_, community1_from_world_);
+  Reconstruction model2 =
+      CommunityModel(scene_.ground_truth, images2_, community2_from_world_);
 
   // Noise on every point, and a quarter of model 2's points far off, as
   // wrongly triangulated points would be.
@@ -115,11 +115,13 @@ TEST_F(PairwiseSimilarityTest, MatchesGroundTruth) {
   }
 
   const PointCorrespondences correspondences = FindPointCorrespondences(
-      model1, model2, TrueCrossMatches(scene_.ground_truth, images1_, images2_));
+      model1,
+      model2,
+      TrueCrossMatches(scene_.ground_truth, images1_, images2_));
   ASSERT_GT(correspondences.Size(), 100);
 
-  const PairwiseSimilarity similarity = EstimatePairwiseSimilarity(
-      correspondences, PairwiseSimilarityOptions());
+  const PairwiseSimilarity similarity =
+      EstimatePairwiseSimilarity(correspondences, PairwiseSimilarityOptions());
   ASSERT_TRUE(similarity.success);
   EXPECT_LT(similarity.num_inliers, 0.8 * correspondences.Size());
   EXPECT_GT(similarity.num_inliers, 0.6 * correspondences.Size());
@@ -137,10 +139,10 @@ TEST_F(PairwiseSimilarityTest, MatchesGroundTruth) {
 }
 
 TEST_F(PairwiseSimilarityTest, EachPointPairCountsOnce) {
-  const Reconstruction model1 = CommunityModel(
-      scene_.ground_truth, images1_, community1_from_world_);
-  const Reconstruction model2 = CommunityModel(
-      scene_.ground_truth, images2_, community2_from_world_);
+  const Reconstruction model1 =
+      CommunityModel(scene_.ground_truth, images1_, community1_from_world_);
+  const Reconstruction model2 =
+      CommunityModel(scene_.ground_truth, images2_, community2_from_world_);
   std::vector<CrossPairMatches> cross_pairs =
       TrueCrossMatches(scene_.ground_truth, images1_, images2_);
   const size_t num_unique =
@@ -160,8 +162,8 @@ TEST(EstimatePairwiseSimilarity, TooFewCorrespondences) {
     correspondences.points1.push_back(Eigen::Vector3d::Random());
     correspondences.points2.push_back(correspondences.points1.back());
   }
-  const PairwiseSimilarity similarity = EstimatePairwiseSimilarity(
-      correspondences, PairwiseSimilarityOptions());
+  const PairwiseSimilarity similarity =
+      EstimatePairwiseSimilarity(correspondences, PairwiseSimilarityOptions());
   EXPECT_FALSE(similarity.success);
   EXPECT_EQ(similarity.num_correspondences, 5);
 }

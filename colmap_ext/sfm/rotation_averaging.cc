@@ -111,9 +111,8 @@ void Linearize(const int num_nodes,
   b->resize(3 * relative_rotations.size());
   for (size_t e = 0; e < relative_rotations.size(); ++e) {
     const RelativeRotation& edge = relative_rotations[e];
-    const Eigen::Quaterniond residual = rotations[edge.node2].inverse() *
-                                        edge.rotation *
-                                        rotations[edge.node1];
+    const Eigen::Quaterniond residual =
+        rotations[edge.node2].inverse() * edge.rotation * rotations[edge.node1];
     b->segment<3>(3 * e) = RotationToAngleAxis(residual);
     for (int d = 0; d < 3; ++d) {
       if (edge.node2 != reference_node) {
@@ -217,7 +216,8 @@ bool AverageRotations(int num_nodes,
       weights.segment<3>(3 * e).setConstant(sigma_sq /
                                             (denominator * denominator));
     }
-    const Eigen::SparseMatrix<double> At_W = A.transpose() * weights.asDiagonal();
+    const Eigen::SparseMatrix<double> At_W =
+        A.transpose() * weights.asDiagonal();
     const Eigen::SparseMatrix<double> normal_matrix = At_W * A;
     if (iter == 0) {
       solver.analyzePattern(normal_matrix);

@@ -51,12 +51,11 @@ struct RotationAveragingOptions {
 
 // Estimates R_0..R_{num_nodes-1} with R_reference = Identity. The graph must
 // be connected. Returns false if it is not or if a solver fails.
-bool AverageRotations(
-    int num_nodes,
-    const std::vector<RelativeRotation>& relative_rotations,
-    int reference_node,
-    const RotationAveragingOptions& options,
-    std::vector<Eigen::Quaterniond>* rotations);
+bool AverageRotations(int num_nodes,
+                      const std::vector<RelativeRotation>& relative_rotations,
+                      int reference_node,
+                      const RotationAveragingOptions& options,
+                      std::vector<Eigen::Quaterniond>* rotations);
 
 // Angle (degrees) between R_ij and R_j R_i^T.
 double RelativeRotationResidualDeg(

@@ -55,8 +55,8 @@ bool SolveDifferenceSystem(const std::vector<int>& nodes,
 
   Eigen::VectorXd solution;
   if (least_squares) {
-    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(
-        A.transpose() * A);
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(A.transpose() *
+                                                              A);
     if (solver.info() != Eigen::Success) {
       return false;
     }
@@ -112,9 +112,9 @@ void TranslationMeasurement(const RelativeSimilarity& edge,
                             Eigen::Vector3d* measurement,
                             double* spread) {
   if (edge.points1.empty()) {
-    *measurement = world_from_second.scale *
-                   (world_from_second.rotation *
-                    edge.second_from_first.translation);
+    *measurement =
+        world_from_second.scale *
+        (world_from_second.rotation * edge.second_from_first.translation);
     *spread = measurement->norm();
     return;
   }
@@ -124,8 +124,8 @@ void TranslationMeasurement(const RelativeSimilarity& edge,
     world_points2[k] = world_from_second.scale *
                        (world_from_second.rotation * edge.points2[k]);
     const Eigen::Vector3d difference =
-        world_points2[k] - world_from_first.scale *
-                               (world_from_first.rotation * edge.points1[k]);
+        world_points2[k] -
+        world_from_first.scale * (world_from_first.rotation * edge.points1[k]);
     for (int d = 0; d < 3; ++d) {
       differences[d].push_back(difference(d));
     }
@@ -240,18 +240,16 @@ SimilarityAveragingResult::EdgeReport ComputeResiduals(
       world_from_second.rotation.inverse() * world_from_first.rotation;
   report.rotation_residual_deg = RadToDeg(
       predicted_rotation.angularDistance(edge.second_from_first.rotation));
-  report.log_scale_residual =
-      std::abs(std::log(world_from_first.scale) -
-               std::log(world_from_second.scale) -
-               std::log(edge.second_from_first.scale));
+  report.log_scale_residual = std::abs(std::log(world_from_first.scale) -
+                                       std::log(world_from_second.scale) -
+                                       std::log(edge.second_from_first.scale));
   Eigen::Vector3d measurement;
   double spread;
   TranslationMeasurement(
       edge, world_from_first, world_from_second, &measurement, &spread);
-  const double residual =
-      (world_from_first.translation - world_from_second.translation -
-       measurement)
-          .norm();
+  const double residual = (world_from_first.translation -
+                           world_from_second.translation - measurement)
+                              .norm();
   report.relative_translation_residual =
       spread > 0 ? residual / spread : (residual > 0 ? 1e9 : 0.0);
   return report;
@@ -320,8 +318,7 @@ SimilarityAveragingResult AverageSimilarities(
     std::map<int, size_t> part_of_root;
     parts.clear();
     for (int node = 0; node < num_communities; ++node) {
-      const auto it =
-          part_of_root.emplace(find(node), parts.size()).first;
+      const auto it = part_of_root.emplace(find(node), parts.size()).first;
       if (it->second == parts.size()) {
         parts.emplace_back();
       }
@@ -344,14 +341,10 @@ SimilarityAveragingResult AverageSimilarities(
           edge_indices.push_back(e);
         }
       }
-      if (!AveragePart(nodes,
-                       edges,
-                       reference,
-                       options,
-                       &result.world_from_community)) {
+      if (!AveragePart(
+              nodes, edges, reference, options, &result.world_from_community)) {
         LOG(WARNING) << "Similarity averaging failed for a part of "
-                     << nodes.size()
-                     << " communities; they are kept apart.";
+                     << nodes.size() << " communities; they are kept apart.";
         for (const size_t e : edge_indices) {
           result.edges[e].kept = false;
         }

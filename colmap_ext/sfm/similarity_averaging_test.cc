@@ -13,8 +13,8 @@ namespace {
 
 Eigen::Quaterniond RandomRotation(std::mt19937* rng) {
   std::normal_distribution<double> normal(0, 1);
-  return Eigen::Quaterniond(normal(*rng), normal(*rng), normal(*rng),
-                            normal(*rng))
+  return Eigen::Quaterniond(
+             normal(*rng), normal(*rng), normal(*rng), normal(*rng))
       .normalized();
 }
 
@@ -115,11 +115,10 @@ Problem MakeProblem(const int num_communities,
           center + 10 * Eigen::Vector3d(unit_normal(rng),
                                         unit_normal(rng),
                                         unit_normal(rng));
-      const Eigen::Vector3d noisy = world_point + noise.point *
-                                                      Eigen::Vector3d(
-                                                          unit_normal(rng),
-                                                          unit_normal(rng),
-                                                          unit_normal(rng));
+      const Eigen::Vector3d noisy =
+          world_point + noise.point * Eigen::Vector3d(unit_normal(rng),
+                                                      unit_normal(rng),
+                                                      unit_normal(rng));
       edge.points1.push_back(Inverse(world_from_1) * world_point);
       edge.points2.push_back(Inverse(world_from_2) * noisy);
     }
@@ -136,8 +135,8 @@ Problem MakeProblem(const int num_communities,
       edge.second_from_first.rotation =
           Eigen::Quaterniond(Eigen::AngleAxisd(
               DegToRad(noise.rotation_deg) * unit_normal(rng),
-              Eigen::Vector3d(unit_normal(rng), unit_normal(rng),
-                              unit_normal(rng))
+              Eigen::Vector3d(
+                  unit_normal(rng), unit_normal(rng), unit_normal(rng))
                   .normalized())) *
           edge.second_from_first.rotation;
     }
@@ -296,8 +295,7 @@ TEST(AverageSimilarities, UnconnectedCommunitiesFormSeparateParts) {
       AverageSimilarities(problem.sizes, edges, SimilarityAveragingOptions());
   ASSERT_EQ(result.NumParts(), 2);
   // Parts by total size: {3, 4} has 55 images, {0, 1, 2} has 30.
-  EXPECT_EQ(result.part_of_community,
-            (std::vector<int>{1, 1, 1, 0, 0}));
+  EXPECT_EQ(result.part_of_community, (std::vector<int>{1, 1, 1, 0, 0}));
   // Each part's largest community is its reference.
   EXPECT_LT(result.world_from_community[3].translation.norm(), 1e-12);
   EXPECT_NEAR(result.world_from_community[3].scale, 1.0, 1e-12);
@@ -310,10 +308,10 @@ TEST(AverageSimilarities, EdgesWithoutPointsUseTheirTranslation) {
     edge.points1.clear();
     edge.points2.clear();
   }
-  const Errors errors = MaxErrors(
-      AverageSimilarities(problem.sizes, problem.edges,
-                          SimilarityAveragingOptions()),
-      problem);
+  const Errors errors =
+      MaxErrors(AverageSimilarities(
+                    problem.sizes, problem.edges, SimilarityAveragingOptions()),
+                problem);
   EXPECT_LT(errors.rotation_deg, 1e-6);
   EXPECT_LT(errors.position, 1e-5);
 }

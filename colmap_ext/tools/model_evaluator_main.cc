@@ -38,7 +38,8 @@ int RunModelEvaluator(int argc, char** argv) {
   options.Parse(argc, argv);
 
   if (!IsModelDir(ground_truth_path)) {
-    LOG(ERROR) << "No COLMAP model at --ground_truth_path " << ground_truth_path;
+    LOG(ERROR) << "No COLMAP model at --ground_truth_path "
+               << ground_truth_path;
     return EXIT_FAILURE;
   }
   std::vector<std::string> model_dirs;

@@ -5,9 +5,8 @@
 
 #include <fstream>
 
-#include <unistd.h>
-
 #include <boost/filesystem.hpp>
+#include <unistd.h>
 
 namespace colmap {
 namespace {

@@ -12,8 +12,8 @@
 namespace colmap {
 
 std::string CreateTestDir() {
-  const testing::TestInfo* test_info =
-      THROW_CHECK_NOTNULL(testing::UnitTest::GetInstance()->current_test_info());
+  const testing::TestInfo* test_info = THROW_CHECK_NOTNULL(
+      testing::UnitTest::GetInstance()->current_test_info());
   const boost::filesystem::path test_dir =
       boost::filesystem::path(testing::TempDir()) / "colmap_ext_tests" /
       (std::string(test_info->test_suite_name()) + "." + test_info->name());
