@@ -174,6 +174,15 @@ TEST_F(CommunityMapperInputTest, InvalidOptionValues) {
   ExpectRefusal(good_database_,
                 "--CommunityMapper.image_overlap -1",
                 "image_overlap is -1");
+  ExpectRefusal(good_database_,
+                "--CommunityMapper.community_ba_function_tolerance -2",
+                "community_ba_function_tolerance is -2");
+  ExpectRefusal(good_database_,
+                "--CommunityMapper.ba_function_tolerance -1",
+                "ba_function_tolerance is -1: it must be 0 or more");
+  ExpectRefusal(good_database_,
+                "--CommunityMapper.ba_initial_trust_region_radius 0",
+                "ba_initial_trust_region_radius is 0: it must be positive");
 }
 
 TEST_F(CommunityMapperInputTest, OutputPathIsAFile) {

@@ -93,6 +93,10 @@ Models ReconstructCommunities(const CommunityMapperController::Options& options,
       if (incremental_options->num_threads < 0) {
         incremental_options->num_threads = num_threads_per_worker;
       }
+      if (options.community_ba_function_tolerance >= 0) {
+        incremental_options->ba_global_function_tolerance =
+            options.community_ba_function_tolerance;
+      }
       LOG(INFO) << StringPrintf(
           "Reconstructing community %d (%d images, %d shared with "
           "neighbours)",
@@ -416,8 +420,11 @@ bool CommunityMapperController::Options::Check() const {
   CHECK_OPTION_GE(image_overlap, 0);
   CHECK_OPTION_GE(num_workers, -1);
   CHECK_OPTION_NE(num_workers, 0);
+  CHECK_OPTION(community_ba_function_tolerance == -1 ||
+               community_ba_function_tolerance >= 0);
   CHECK_OPTION(pairwise_similarity.Check());
   CHECK_OPTION(similarity_averaging.Check());
+  CHECK_OPTION(refinement.Check());
   CHECK_OPTION(incremental_options.Check());
   return true;
 }

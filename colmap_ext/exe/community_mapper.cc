@@ -56,6 +56,24 @@ bool CheckCommandOptions(const CommunityMapperController::Options& options) {
         "one per CPU core.",
         options.num_workers));
   }
+  if (options.community_ba_function_tolerance != -1 &&
+      options.community_ba_function_tolerance < 0) {
+    fail(StringPrintf(
+        "--CommunityMapper.community_ba_function_tolerance is %g: it must be "
+        "0 or more, or -1 for --Mapper.ba_global_function_tolerance.",
+        options.community_ba_function_tolerance));
+  }
+  if (options.refinement.function_tolerance < 0) {
+    fail(StringPrintf(
+        "--CommunityMapper.ba_function_tolerance is %g: it must be 0 or more.",
+        options.refinement.function_tolerance));
+  }
+  if (!(options.refinement.initial_trust_region_radius > 0)) {
+    fail(StringPrintf(
+        "--CommunityMapper.ba_initial_trust_region_radius is %g: it must be "
+        "positive.",
+        options.refinement.initial_trust_region_radius));
+  }
   if (valid && !options.Check()) {
     fail("Invalid option values (see the check that failed above).");
   }
@@ -354,6 +372,10 @@ int RunCommunityMapper(int argc, char** argv) {
   add("num_workers",
       &mapper_options.num_workers,
       "communities reconstructed at once (-1: one per CPU core)");
+  add("community_ba_function_tolerance",
+      &mapper_options.community_ba_function_tolerance,
+      "relative function tolerance of the communities' global bundle "
+      "adjustments (-1: Mapper.ba_global_function_tolerance)");
   add("pairwise_max_relative_error",
       &mapper_options.pairwise_similarity.max_relative_error,
       "similarity RANSAC inlier threshold, relative to the spread of the "
@@ -379,6 +401,14 @@ int RunCommunityMapper(int argc, char** argv) {
   add("robust_first_adjustment",
       &mapper_options.refinement.robust_first_adjustment,
       "start the merged model's bundle adjustment with a robust loss");
+  add("ba_function_tolerance",
+      &mapper_options.refinement.function_tolerance,
+      "the merged model's bundle adjustments stop once an iteration lowers "
+      "the cost by less than this fraction");
+  add("ba_initial_trust_region_radius",
+      &mapper_options.refinement.initial_trust_region_radius,
+      "initial Levenberg-Marquardt trust region radius of the merged model's "
+      "bundle adjustments");
   add("sparse_solver",
       &mapper_options.refinement.sparse_solver,
       "use the sparse direct solver in the merged model's bundle adjustment "

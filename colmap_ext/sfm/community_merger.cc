@@ -3,9 +3,9 @@
 #include "colmap/estimators/bundle_adjustment.h"
 #include "colmap/sfm/incremental_mapper.h"
 #include "colmap/sfm/observation_manager.h"
-#include "colmap/util/timer.h"
 #include "colmap/util/logging.h"
 #include "colmap/util/misc.h"
+#include "colmap/util/timer.h"
 
 #include <unordered_set>
 
@@ -92,9 +92,10 @@ void JoinReconstructions(
       if (track.Length() == 0) {
         continue;
       }
-      ids.emplace(point3D.first,
-                  merged->AddPoint3D(
-                      point3D.second.xyz, std::move(track), point3D.second.color));
+      ids.emplace(
+          point3D.first,
+          merged->AddPoint3D(
+              point3D.second.xyz, std::move(track), point3D.second.color));
     }
   }
 }
@@ -144,9 +145,11 @@ namespace {
 // Global bundle adjustment of all registered images, the gauge fixed as
 // COLMAP's mapper fixes it (first image, one coordinate of the second). With
 // `sparse_solver`, Ceres' sparse Schur solver (SuiteSparse) is used at any
-// size; COLMAP switches to the iterative Schur solver above 1000 images.
+// size; COLMAP switches to the iterative Schur solver above 1000 images. The
+// solver starts from the options' trust region radius and stops once an
+// iteration lowers the cost by less than their relative function tolerance.
 bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
-                        const bool sparse_solver,
+                        const MergedModelRefinementOptions& refinement,
                         ObservationManager* observation_manager,
                         Reconstruction* reconstruction) {
   const std::vector<image_t>& reg_image_ids = reconstruction->RegImageIds();
@@ -171,10 +174,13 @@ bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
   }
   ceres::Solver::Options solver_options =
       bundle_adjuster.SetUpSolverOptions(*problem, options.solver_options);
-  if (sparse_solver && solver_options.sparse_linear_algebra_library_type !=
-                           ceres::NO_SPARSE) {
+  if (refinement.sparse_solver &&
+      solver_options.sparse_linear_algebra_library_type != ceres::NO_SPARSE) {
     solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
   }
+  solver_options.function_tolerance = refinement.function_tolerance;
+  solver_options.initial_trust_region_radius =
+      refinement.initial_trust_region_radius;
   Timer timer;
   timer.Start();
   ceres::Solver::Summary summary;
@@ -194,11 +200,18 @@ bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
 
 }  // namespace
 
+bool MergedModelRefinementOptions::Check() const {
+  CHECK_OPTION_GE(function_tolerance, 0);
+  CHECK_OPTION_GT(initial_trust_region_radius, 0);
+  return true;
+}
+
 MergedModelRefinementSummary RefineMergedModel(
     const MergedModelRefinementOptions& options,
     const IncrementalMapperOptions& mapper_options,
     std::shared_ptr<const DatabaseCache> database_cache,
     std::shared_ptr<Reconstruction> reconstruction) {
+  THROW_CHECK(options.Check());
   THROW_CHECK(mapper_options.Check());
   MergedModelRefinementSummary summary;
   reconstruction->UpdatePoint3DErrors();
@@ -250,7 +263,7 @@ MergedModelRefinementSummary RefineMergedModel(
         BundleAdjustmentOptions::LossFunctionType::SOFT_L1;
     robust_options.loss_function_scale = 1.0;
     AdjustGlobalBundle(robust_options,
-                       options.sparse_solver,
+                       options,
                        &mapper.ObservationManager(),
                        reconstruction.get());
   }
@@ -266,20 +279,18 @@ MergedModelRefinementSummary RefineMergedModel(
   for (int i = 0; i < mapper_options.ba_global_max_refinements; ++i) {
     const size_t num_observations = reconstruction->ComputeNumObservations();
     AdjustGlobalBundle(ba_options,
-                       options.sparse_solver,
+                       options,
                        &mapper.ObservationManager(),
                        reconstruction.get());
     reconstruction->Normalize();
-    const size_t num_changed =
-        mapper.CompleteAndMergeTracks(triangulation) +
-        mapper.FilterPoints(incremental);
+    const size_t num_changed = mapper.CompleteAndMergeTracks(triangulation) +
+                               mapper.FilterPoints(incremental);
     const double changed =
         num_observations == 0
             ? 0
             : static_cast<double>(num_changed) / num_observations;
-    LOG(INFO) << StringPrintf("Refinement %d: %.5f of the observations changed",
-                              i + 1,
-                              changed);
+    LOG(INFO) << StringPrintf(
+        "Refinement %d: %.5f of the observations changed", i + 1, changed);
     if (changed < mapper_options.ba_global_max_refinement_change) {
       break;
     }
