@@ -63,8 +63,8 @@ LABELS = {
 }
 COLORS = {"mapper": "tab:blue", "community": "tab:red",
           "hierarchical": "tab:green", "hier_fair": "tab:olive"}
-PHASES = ["Partition", "Communities", "Similarity averaging",
-          "Merge and bundle adjustment"]
+PHASES = ["Partition", "Communities", "Similarity averaging", "Merge",
+          "Final bundle adjustment"]
 
 
 def log(message):

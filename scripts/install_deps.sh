@@ -18,7 +18,7 @@ PACKAGES=(
   libcgal-dev qtbase5-dev libqt5opengl5-dev libflann-dev libfreeimage-dev
   libglew-dev libmetis-dev libsqlite3-dev libgoogle-glog-dev libgflags-dev
   libgtest-dev libigraph-dev
-  python3 python3-numpy python3-matplotlib time
+  python3 python3-numpy python3-matplotlib python3-pil time
   xvfb xauth libgl1-mesa-dri imagemagick
 )
 

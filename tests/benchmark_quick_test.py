@@ -23,7 +23,7 @@ def main():
         methods
     numeric = ["wall_s", "cpu_s", "peak_rss_mb", "models", "registered",
                "mean_reproj_px", "median_pos_err", "p90_pos_err",
-               "median_pos_err_frac", "median_rot_err_deg",
+               "median_pos_err_frac", "p90_pos_err_frac", "median_rot_err_deg",
                "time_vs_mapper", "time_vs_hierarchical", "time_vs_hier_fair",
                "memory_vs_mapper"]
     for row in rows:
@@ -35,7 +35,7 @@ def main():
         assert int(row["registered"]) > 0, row
     community = rows[1]
     for phase in ("partition", "communities", "similarity_averaging",
-                  "merge_and_bundle_adjustment"):
+                  "merge", "final_bundle_adjustment"):
         assert float(community[f"phase_{phase}_s"]) >= 0, phase
     assert int(community["communities"]) >= 2
     table = open(os.path.join(out, "results.md")).read()

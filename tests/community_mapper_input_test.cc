@@ -6,6 +6,7 @@
 #include "colmap/scene/database.h"
 #include "colmap/util/misc.h"
 
+#include <cstdlib>
 #include <fstream>
 #include <iterator>
 
@@ -85,10 +86,10 @@ class CommunityMapperInputTest : public ::testing::Test {
                      const std::string& extra_arguments,
                      const std::string& expected) {
     std::string output;
-    EXPECT_NE(
+    EXPECT_EQ(
         RunCommunityMapper(
             database_path, image_path_, output_path_, extra_arguments, &output),
-        0)
+        EXIT_FAILURE)
         << output;
     EXPECT_NE(output.find(expected), std::string::npos)
         << "expected \"" << expected << "\" in:\n"
@@ -188,9 +189,9 @@ TEST_F(CommunityMapperInputTest, InvalidOptionValues) {
 TEST_F(CommunityMapperInputTest, OutputPathIsAFile) {
   std::ofstream(output_path_) << "a file\n";
   std::string output;
-  EXPECT_NE(RunCommunityMapper(
+  EXPECT_EQ(RunCommunityMapper(
                 good_database_, image_path_, output_path_, "", &output),
-            0);
+            EXIT_FAILURE);
   EXPECT_NE(output.find("is a file, not a folder"), std::string::npos)
       << output;
   EXPECT_EQ(ReadFile(output_path_), "a file\n");
@@ -205,16 +206,16 @@ TEST_F(CommunityMapperInputTest, OutputPathNotWritable) {
     GTEST_SKIP() << "/sys is writable here; cannot test an unwritable path";
   }
   std::string output;
-  EXPECT_NE(
+  EXPECT_EQ(
       RunCommunityMapper(good_database_, image_path_, unwritable, "", &output),
-      0);
+      EXIT_FAILURE);
   EXPECT_NE(output.find("Cannot create --output_path"), std::string::npos)
       << output;
 
   // An existing folder without write permission.
-  EXPECT_NE(RunCommunityMapper(
+  EXPECT_EQ(RunCommunityMapper(
                 good_database_, image_path_, "/sys/kernel", "", &output),
-            0);
+            EXIT_FAILURE);
   EXPECT_NE(output.find("is not writable"), std::string::npos) << output;
 }
 
@@ -226,12 +227,12 @@ TEST_F(CommunityMapperInputTest, EarlierResultsAreNotReplacedSilently) {
     std::ofstream(JoinPaths(model_path, name)) << name;
   }
   std::string output;
-  EXPECT_NE(RunCommunityMapper(good_database_,
+  EXPECT_EQ(RunCommunityMapper(good_database_,
                                image_path_,
                                output_path_,
                                "--CommunityMapper.partition_only 1",
                                &output),
-            0);
+            EXIT_FAILURE);
   EXPECT_NE(output.find("already holds results of an earlier run"),
             std::string::npos)
       << output;

@@ -269,10 +269,36 @@ std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
   return similarities;
 }
 
+// A community model alone in its part, without the images it borrowed from
+// its neighbours (they belong to other models).
+std::shared_ptr<Reconstruction> KeepOwnImages(
+    const std::unordered_set<image_t>& own_image_ids,
+    std::shared_ptr<Reconstruction> model) {
+  bool has_borrowed_images = false;
+  for (const image_t image_id : model->RegImageIds()) {
+    has_borrowed_images |= own_image_ids.count(image_id) == 0;
+  }
+  if (!has_borrowed_images) {
+    return model;
+  }
+  auto own = std::make_shared<Reconstruction>();
+  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
+  JoinReconstructions(
+      {model.get()}, {Sim3d()}, {own_image_ids}, own.get(), &point3D_ids);
+  for (const point3D_t point3D_id : own->Point3DIds()) {
+    if (own->Point3D(point3D_id).track.Length() < 2) {
+      own->DeletePoint3D(point3D_id);
+    }
+  }
+  return own;
+}
+
 // Joins the communities of one part (connected by kept similarities) into
 // one model in the global frame, merges their corresponding points and
-// refines the result on the part's images. The communities' own models are
-// consumed.
+// refines the result on the part's images plus `extra_image_names` (images
+// of communities that could not be reconstructed, which the refinement
+// tries to register). The communities' own models are consumed. Adds the
+// seconds spent in the refinement to `refinement_seconds`.
 std::shared_ptr<Reconstruction> MergePart(
     const CommunityMapperController::Options& options,
     const std::vector<int>& part_communities,
@@ -281,7 +307,9 @@ std::shared_ptr<Reconstruction> MergePart(
     const std::vector<std::vector<std::pair<point3D_t, point3D_t>>>&
         inlier_point3D_ids,
     const SimilarityAveragingResult& averaging,
-    Models* models) {
+    const std::unordered_set<std::string>& extra_image_names,
+    Models* models,
+    double* refinement_seconds) {
   LOG(INFO) << "Merging communities" << [&] {
     std::string ids;
     for (const int c : part_communities) ids += " " + std::to_string(c);
@@ -290,7 +318,7 @@ std::shared_ptr<Reconstruction> MergePart(
   std::vector<Reconstruction*> part_models;
   std::vector<Sim3d> world_from_community;
   std::vector<std::unordered_set<image_t>> owned_image_ids;
-  std::unordered_set<std::string> part_image_names;
+  std::unordered_set<std::string> part_image_names = extra_image_names;
   std::map<int, size_t> index_in_part;
   for (const int c : part_communities) {
     index_in_part.emplace(c, part_models.size());
@@ -339,6 +367,8 @@ std::shared_ptr<Reconstruction> MergePart(
       static_cast<int>(merged->NumPoints3D()),
       static_cast<int>(num_merged_points));
 
+  Timer timer;
+  timer.Start();
   std::shared_ptr<DatabaseCache> database_cache;
   {
     const Database database(options.database_path);
@@ -364,6 +394,7 @@ std::shared_ptr<Reconstruction> MergePart(
   if (options.incremental_options.extract_colors) {
     merged->ExtractColorsForAllImages(options.image_path);
   }
+  *refinement_seconds += timer.ElapsedSeconds();
   return merged;
 }
 
@@ -567,6 +598,17 @@ void CommunityMapperController::Run() {
 
   PrintHeading1("4. Merging the communities and bundle adjustment");
   phase_timer.Restart();
+  // Images of communities without a model are offered to the largest part,
+  // whose refinement registers those it can.
+  std::unordered_set<std::string> unmodelled_image_names;
+  for (size_t c = 0; c < models.size(); ++c) {
+    if (!models[c]) {
+      for (const image_t image_id : communities.own_image_ids[c]) {
+        unmodelled_image_names.insert(communities.name_of_image.at(image_id));
+      }
+    }
+  }
+  double refinement_seconds = 0.0;
   std::vector<std::shared_ptr<Reconstruction>> merged_models;
   for (int part = 0; part < averaging.NumParts(); ++part) {
     std::vector<int> part_communities;
@@ -579,7 +621,9 @@ void CommunityMapperController::Run() {
       continue;
     }
     if (part_communities.size() == 1) {
-      merged_models.push_back(models[part_communities[0]]);
+      const int c = part_communities[0];
+      merged_models.push_back(
+          KeepOwnImages(communities.own_image_ids[c], models[c]));
       continue;
     }
 
@@ -589,7 +633,11 @@ void CommunityMapperController::Run() {
                                       similarities,
                                       inlier_point3D_ids,
                                       averaging,
-                                      &models));
+                                      merged_models.empty()
+                                          ? unmodelled_image_names
+                                          : std::unordered_set<std::string>(),
+                                      &models,
+                                      &refinement_seconds));
   }
 
   std::stable_sort(merged_models.begin(),
@@ -609,7 +657,17 @@ void CommunityMapperController::Run() {
         CommunityCamerasToPly(*merged_models[0], summary_.community_of_image),
         path);
   }
-  end_phase("Merge and bundle adjustment");
+  // The merge (joining the models, merging their points) and the final
+  // bundle adjustment (with the registration of left-over images, track
+  // completion and filtering) are reported apart.
+  const double merge_total = phase_timer.ElapsedSeconds();
+  summary_.phase_seconds.emplace_back("Merge",
+                                      merge_total - refinement_seconds);
+  summary_.phase_seconds.emplace_back("Final bundle adjustment",
+                                      refinement_seconds);
+  LOG(INFO) << StringPrintf("Merge: %.3fs, final bundle adjustment: %.3fs",
+                            merge_total - refinement_seconds,
+                            refinement_seconds);
 
   //////////////////////////////////////////////////////////////////////////////
   // Summary

@@ -153,7 +153,9 @@ bool CheckDatabase(const std::string& path, const int min_num_matches) {
   if (num_images == 0) {
     LOG(ERROR) << "The database " << path
                << " has no images: run `colmap feature_extractor` on your "
-                  "images first, then a matcher.";
+                  "images first, then a matcher. (If you did, it could read "
+                  "none of them: check its --image_path and the image "
+                  "files.)";
     return false;
   }
   if (num_keypoints == 0) {
@@ -182,7 +184,8 @@ void CheckImagePath(const std::string& image_path) {
                  << " is not a folder: the points will have no colours.";
     return;
   }
-  if (boost::filesystem::is_empty(image_path)) {
+  boost::system::error_code error;
+  if (boost::filesystem::is_empty(image_path, error) && !error) {
     LOG(WARNING) << "--image_path " << image_path
                  << " is empty: the points will have no colours.";
   }
@@ -250,6 +253,27 @@ bool PrepareOutputPath(const std::string& output_path, const bool overwrite) {
   return true;
 }
 
+// Writes the merged models as OUT/0, OUT/1, ... (each under a temporary name,
+// then renamed into place), removes models of an earlier run beyond them,
+// and writes OUT/project.ini.
+void WriteModels(const ReconstructionManager& reconstruction_manager,
+                 const std::string& output_path,
+                 const std::string& project_ini) {
+  for (size_t i = 0; i < reconstruction_manager.Size(); ++i) {
+    WriteReconstructionAtomically(*reconstruction_manager.Get(i),
+                                  JoinPaths(output_path, std::to_string(i)));
+  }
+  // Models of an earlier run beyond the new ones would mix with them.
+  for (size_t i = reconstruction_manager.Size();
+       ExistsDir(JoinPaths(output_path, std::to_string(i)));
+       ++i) {
+    boost::filesystem::remove_all(JoinPaths(output_path, std::to_string(i)));
+  }
+  if (!project_ini.empty()) {
+    WriteTextFileAtomically(project_ini, JoinPaths(output_path, "project.ini"));
+  }
+}
+
 }  // namespace
 
 bool RunCommunityMapperImpl(const CommunityMapperController::Options& options,
@@ -287,19 +311,14 @@ bool RunCommunityMapperImpl(const CommunityMapperController::Options& options,
       LOG(ERROR) << "No community could be reconstructed: no model written.";
       return false;
     }
-    for (size_t i = 0; i < reconstruction_manager->Size(); ++i) {
-      WriteReconstructionAtomically(*reconstruction_manager->Get(i),
-                                    JoinPaths(output_path, std::to_string(i)));
-    }
-    // Models of an earlier run beyond the new ones would mix with them.
-    for (size_t i = reconstruction_manager->Size();
-         ExistsDir(JoinPaths(output_path, std::to_string(i)));
-         ++i) {
-      boost::filesystem::remove_all(JoinPaths(output_path, std::to_string(i)));
-    }
-    if (!project_ini.empty()) {
-      WriteTextFileAtomically(project_ini,
-                              JoinPaths(output_path, "project.ini"));
+    try {
+      WriteModels(*reconstruction_manager, output_path, project_ini);
+    } catch (const std::exception& error) {
+      LOG(ERROR) << "Writing the models to " << output_path
+                 << " failed: " << error.what()
+                 << ". Models already in place are complete; check the free "
+                    "space and permissions, then run again.";
+      return false;
     }
     outputs.push_back(
         JoinPaths(output_path, "0") +

@@ -305,6 +305,47 @@ TEST(DetectCommunities, IsolatedVerticesAndEmptyGraph) {
   EXPECT_EQ(empty.NumCommunities(), 0);
 }
 
+TEST(ExtendCommunities, BorrowsTheBestConnectedBorderImages) {
+  // Cliques A = 0..9 and B = 10..19, joined by 9-10, 8-10, 7-10, 9-11,
+  // 8-11 and a weak 6-12.
+  WeightedGraph graph;
+  AddClique(/*first=*/0, /*size=*/10, 1, &graph);
+  AddClique(/*first=*/10, /*size=*/10, 1, &graph);
+  for (const auto& edge : std::vector<std::pair<int, int>>{
+           {9, 10}, {8, 10}, {7, 10}, {9, 11}, {8, 11}, {6, 12}}) {
+    graph.edges.push_back({edge.first, edge.second, 1});
+  }
+  CommunityPartition partition;
+  for (int vertex = 0; vertex < 20; ++vertex) {
+    partition.membership.push_back(vertex < 10 ? 0 : 1);
+  }
+
+  // Without overlap, the communities are returned as they are.
+  EXPECT_EQ(ExtendCommunities(graph, partition, /*num_overlap_images=*/0),
+            partition.Communities());
+
+  const std::vector<std::vector<int>> extended =
+      ExtendCommunities(graph, partition, /*num_overlap_images=*/2);
+  ASSERT_EQ(extended.size(), 2);
+  // A's own images first, then 10 (three edges into A), then 11 (two into
+  // A, one to 10), not the weakly linked 12.
+  std::vector<int> expected_a = partition.Communities()[0];
+  expected_a.push_back(10);
+  expected_a.push_back(11);
+  EXPECT_EQ(extended[0], expected_a);
+  // B borrows 8 and 9 (two edges into B each, then one to each other), not
+  // 6 or 7 (one edge into B).
+  ASSERT_EQ(extended[1].size(), 12);
+  EXPECT_EQ(std::set<int>(extended[1].begin() + 10, extended[1].end()),
+            std::set<int>({8, 9}));
+
+  // A community borrows at most what its neighbour has.
+  const std::vector<std::vector<int>> all =
+      ExtendCommunities(graph, partition, /*num_overlap_images=*/100);
+  EXPECT_EQ(all[0].size(), 20);
+  EXPECT_EQ(std::set<int>(all[0].begin(), all[0].end()).size(), 20);
+}
+
 TEST(CommunityDetectionOptions, Check) {
   CommunityDetectionOptions options;
   EXPECT_TRUE(options.Check());

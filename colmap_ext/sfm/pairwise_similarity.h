@@ -9,7 +9,11 @@
 // between image i of community 1 and image j of community 2, whose keypoints
 // observe 3D points X1 and X2 in their own reconstructions, makes the
 // correspondence (X1, X2); each pair of 3D points counts once, however many
-// matches link it. The transform X2 = s R X1 + t is estimated with COLMAP's
+// matches link it. Where the communities share images (the controller's
+// image_overlap), a shared image is passed as a "cross pair" of the image
+// with itself, each keypoint matched to itself: a keypoint with a 3D point in
+// both reconstructions is the most direct co-visibility there is. The
+// transform X2 = s R X1 + t is estimated with COLMAP's
 // SimilarityTransformEstimator inside LO-RANSAC. Reconstructions have
 // arbitrary scale, so the inlier threshold is relative: a fraction of the
 // spread (median distance to the median) of the correspondences in the

@@ -325,6 +325,8 @@ SimilarityAveragingResult AverageSimilarities(
       parts[it->second].push_back(node);
     }
 
+    // A part whose averaging fails loses its edges; the next round splits it.
+    bool failed = false;
     for (std::vector<int>& nodes : parts) {
       int reference = nodes.front();
       for (const int node : nodes) {
@@ -351,6 +353,7 @@ SimilarityAveragingResult AverageSimilarities(
         for (const int node : nodes) {
           result.world_from_community[node] = Sim3d();
         }
+        failed = failed || !edge_indices.empty();
       }
     }
 
@@ -363,18 +366,20 @@ SimilarityAveragingResult AverageSimilarities(
       result.edges[e] = ComputeResiduals(relative_similarities[e],
                                          result.world_from_community);
       result.edges[e].kept = true;
-      if (round < options.max_num_rejection_rounds &&
-          (result.edges[e].rotation_residual_deg >
-               options.max_rotation_residual_deg ||
-           result.edges[e].log_scale_residual >
-               options.max_log_scale_residual ||
-           result.edges[e].relative_translation_residual >
-               options.max_relative_translation_residual)) {
+      // Written so that a non-finite residual counts as too large.
+      const bool within_bounds =
+          result.edges[e].rotation_residual_deg <=
+              options.max_rotation_residual_deg &&
+          result.edges[e].log_scale_residual <=
+              options.max_log_scale_residual &&
+          result.edges[e].relative_translation_residual <=
+              options.max_relative_translation_residual;
+      if (round < options.max_num_rejection_rounds && !within_bounds) {
         result.edges[e].kept = false;
         rejected = true;
       }
     }
-    if (!rejected) {
+    if (!rejected && !failed) {
       break;
     }
   }

@@ -21,8 +21,14 @@ void WriteReconstructionAtomically(const Reconstruction& reconstruction,
                                    const std::string& path) {
   const std::string temporary = TemporaryPath(path);
   boost::filesystem::remove_all(temporary);
-  boost::filesystem::create_directories(temporary);
-  reconstruction.WriteBinary(temporary);
+  try {
+    boost::filesystem::create_directories(temporary);
+    reconstruction.WriteBinary(temporary);
+  } catch (...) {
+    boost::system::error_code ignored;
+    boost::filesystem::remove_all(temporary, ignored);
+    throw;
+  }
 
   // A folder cannot be renamed over a non-empty one: move the old one aside
   // first, then drop it.
