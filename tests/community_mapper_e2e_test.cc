@@ -38,6 +38,19 @@ Scene GenerateScene(const std::string& path, const std::string& arguments) {
   return Scene{path};
 }
 
+// Runs `colmap COMMAND` (community_mapper, mapper) on the scene; returns
+// its exit status.
+int RunMapper(const std::string& command,
+              const Scene& scene,
+              const std::string& output_path,
+              std::string* log) {
+  return RunCommand(std::string(COLMAP_BINARY) + " " + command +
+                        " --database_path " + ShellQuote(scene.DatabasePath()) +
+                        " --image_path " + ShellQuote(scene.ImagePath()) +
+                        " --output_path " + ShellQuote(output_path),
+                    log);
+}
+
 std::map<std::string, int> ReadClusters(const std::string& path) {
   std::map<std::string, int> clusters;
   std::ifstream file(path);
@@ -85,12 +98,7 @@ class CommunityMapperEndToEnd : public ::testing::Test {
         "--outlier_match_ratio 0.05 --num_false_pairs 10 --seed 11"));
     output_path_ = new std::string(JoinPaths(root, "sparse"));
     log_ = new std::string;
-    status_ = RunCommand(
-        std::string(COLMAP_BINARY) + " community_mapper --database_path " +
-            ShellQuote(scene_->DatabasePath()) + " --image_path " +
-            ShellQuote(scene_->ImagePath()) + " --output_path " +
-            ShellQuote(*output_path_),
-        log_);
+    status_ = RunMapper("community_mapper", *scene_, *output_path_, log_);
   }
 
   static void TearDownTestSuite() {
@@ -279,13 +287,7 @@ TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
 
   const std::string community_path = JoinPaths(test_dir, "community");
   std::string log;
-  ASSERT_EQ(RunCommand(std::string(COLMAP_BINARY) +
-                           " community_mapper --database_path " +
-                           ShellQuote(scene.DatabasePath()) + " --image_path " +
-                           ShellQuote(scene.ImagePath()) + " --output_path " +
-                           ShellQuote(community_path),
-                       &log),
-            0)
+  ASSERT_EQ(RunMapper("community_mapper", scene, community_path, &log), 0)
       << log;
   const std::unordered_map<std::string, int> communities =
       ReadCommunities(JoinPaths(community_path, "communities.txt"));
@@ -296,13 +298,7 @@ TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
 
   const std::string mapper_path = JoinPaths(test_dir, "mapper");
   CreateDirIfNotExists(mapper_path);
-  ASSERT_EQ(RunCommand(std::string(COLMAP_BINARY) + " mapper --database_path " +
-                           ShellQuote(scene.DatabasePath()) + " --image_path " +
-                           ShellQuote(scene.ImagePath()) + " --output_path " +
-                           ShellQuote(mapper_path),
-                       &log),
-            0)
-      << log;
+  ASSERT_EQ(RunMapper("mapper", scene, mapper_path, &log), 0) << log;
 
   const ModelEvaluation community =
       Evaluate(JoinPaths(community_path, "0"), scene.GroundTruthPath());
@@ -317,6 +313,35 @@ TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
       community.median_position_error,
       std::max(1.5 * mapper.median_position_error, 0.0005 * community.extent));
   EXPECT_LT(community.mean_reprojection_error, 1.0);
+}
+
+// Two landmarks that no camera links: two view-graph components, so two
+// models, largest first, each image in exactly one.
+TEST(CommunityMapperComponents, EachComponentIsItsOwnModel) {
+  const std::string test_dir = CreateTestDir();
+  const Scene scene = GenerateScene(
+      JoinPaths(test_dir, "scene"),
+      "--num_clusters 2 --num_images_per_cluster 25 --num_images_per_link 0 "
+      "--close_loop 0 --keypoint_noise 0.5 --seed 13");
+  const std::string output_path = JoinPaths(test_dir, "sparse");
+  std::string log;
+  ASSERT_EQ(RunMapper("community_mapper", scene, output_path, &log), 0) << log;
+  EXPECT_NE(log.find("2 connected component(s)"), std::string::npos) << log;
+
+  Reconstruction model0;
+  model0.Read(JoinPaths(output_path, "0"));
+  Reconstruction model1;
+  model1.Read(JoinPaths(output_path, "1"));
+  EXPECT_FALSE(ExistsDir(JoinPaths(output_path, "2")));
+  EXPECT_GE(model0.NumRegImages(), model1.NumRegImages());
+  EXPECT_GE(model1.NumRegImages(), 24);
+  EXPECT_EQ(model0.NumRegImages() + model1.NumRegImages(), 50);
+  for (const image_t image_id : model1.RegImageIds()) {
+    EXPECT_FALSE(model0.ExistsImage(image_id) &&
+                 model0.IsImageRegistered(image_id))
+        << model1.Image(image_id).Name();
+  }
+  EXPECT_NE(log.find("in 2 model(s)"), std::string::npos) << log;
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include "colmap/util/misc.h"
 #include "colmap/util/timer.h"
 
+#include <algorithm>
 #include <unordered_set>
 
 namespace colmap {
@@ -253,32 +254,27 @@ MergedModelRefinementSummary RefineMergedModel(
 
   // As the incremental mapper's global refinement: complete and merge tracks
   // over the whole correspondence graph, re-triangulate, then alternate
-  // bundle adjustment and filtering until few observations change.
+  // bundle adjustment and filtering until few observations change. The first
+  // adjustment is the robust one (if asked): where it leaves few
+  // observations to filter, it is the only one.
   timer.Restart();
   const size_t num_completed = mapper.CompleteAndMergeTracks(triangulation);
   const size_t num_retriangulated = mapper.Retriangulate(triangulation);
-  if (options.robust_first_adjustment) {
-    BundleAdjustmentOptions robust_options = ba_options;
-    robust_options.loss_function_type =
-        BundleAdjustmentOptions::LossFunctionType::SOFT_L1;
-    robust_options.loss_function_scale = 1.0;
-    AdjustGlobalBundle(robust_options,
-                       options,
-                       &mapper.ObservationManager(),
-                       reconstruction.get());
-  }
-
-  const size_t num_filtered = mapper.FilterPoints(incremental);
   LOG(INFO) << StringPrintf(
-      "Completed and merged %d observations, re-triangulated %d, filtered %d "
-      "(%.1fs)",
+      "Completed and merged %d observations, re-triangulated %d (%.1fs)",
       static_cast<int>(num_completed),
       static_cast<int>(num_retriangulated),
-      static_cast<int>(num_filtered),
       timer.ElapsedSeconds());
-  for (int i = 0; i < mapper_options.ba_global_max_refinements; ++i) {
+  BundleAdjustmentOptions robust_options = ba_options;
+  robust_options.loss_function_type =
+      BundleAdjustmentOptions::LossFunctionType::SOFT_L1;
+  robust_options.loss_function_scale = 1.0;
+  const int num_refinements =
+      std::max(1, mapper_options.ba_global_max_refinements);
+  for (int i = 0; i < num_refinements; ++i) {
     const size_t num_observations = reconstruction->ComputeNumObservations();
-    AdjustGlobalBundle(ba_options,
+    const bool robust = i == 0 && options.robust_first_adjustment;
+    AdjustGlobalBundle(robust ? robust_options : ba_options,
                        options,
                        &mapper.ObservationManager(),
                        reconstruction.get());
@@ -290,7 +286,11 @@ MergedModelRefinementSummary RefineMergedModel(
             ? 0
             : static_cast<double>(num_changed) / num_observations;
     LOG(INFO) << StringPrintf(
-        "Refinement %d: %.5f of the observations changed", i + 1, changed);
+        "Refinement %d%s: %d observations (%.5f) changed",
+        i + 1,
+        robust ? " (robust loss)" : "",
+        static_cast<int>(num_changed),
+        changed);
     if (changed < mapper_options.ba_global_max_refinement_change) {
       break;
     }
