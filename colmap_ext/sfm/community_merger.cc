@@ -285,12 +285,11 @@ MergedModelRefinementSummary RefineMergedModel(
         num_observations == 0
             ? 0
             : static_cast<double>(num_changed) / num_observations;
-    LOG(INFO) << StringPrintf(
-        "Refinement %d%s: %d observations (%.5f) changed",
-        i + 1,
-        robust ? " (robust loss)" : "",
-        static_cast<int>(num_changed),
-        changed);
+    LOG(INFO) << StringPrintf("Refinement %d%s: %d observations (%.5f) changed",
+                              i + 1,
+                              robust ? " (robust loss)" : "",
+                              static_cast<int>(num_changed),
+                              changed);
     if (changed < mapper_options.ba_global_max_refinement_change) {
       break;
     }
