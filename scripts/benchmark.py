@@ -156,8 +156,11 @@ def run_scene(name, out_dir, threads, methods):
         elif method == "hierarchical":
             command = [COLMAP, "hierarchical_mapper"] + common
         else:
+            # Without a partition there is no fair leaf size: use the
+            # hierarchical mapper's own default.
             command = [COLMAP, "hierarchical_mapper"] + common + \
-                ["--leaf_max_num_images", str(leaf_size)]
+                (["--leaf_max_num_images", str(leaf_size)]
+                 if leaf_size else [])
         log(f"   {LABELS[method]} ...")
         log_path = os.path.join(out_dir, name, method + ".log")
         status, wall, cpu, rss = run_timed(command, log_path)
@@ -180,14 +183,16 @@ def run_scene(name, out_dir, threads, methods):
             for phase, seconds in community_phases(log_path).items():
                 row["phase_" + phase.lower().replace(" ", "_") + "_s"] = \
                     seconds
-            communities = read_communities(
-                os.path.join(run_dir, "communities.txt"))
+            communities_path = os.path.join(run_dir, "communities.txt")
+            communities = read_communities(communities_path) \
+                if os.path.exists(communities_path) else {}
             sizes = {}
             for community in communities.values():
                 sizes[community] = sizes.get(community, 0) + 1
             row["communities"] = len(sizes)
-            leaf_size = int(statistics.median(sizes.values()))
-            row["median_community_size"] = leaf_size
+            if sizes:
+                leaf_size = int(statistics.median(sizes.values()))
+            row["median_community_size"] = leaf_size or 0
         log(f"   -> {wall:.1f}s, {row['registered']}/{num_images} images in "
             f"{row['models']} model(s), median error "
             f"{row['median_pos_err']:.4f}")

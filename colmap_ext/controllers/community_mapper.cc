@@ -139,8 +139,14 @@ Models ReconstructCommunities(const CommunityMapperController::Options& options,
             num_images);
       }
       if (!communities_path.empty()) {
-        WriteReconstructionAtomically(
-            *largest, JoinPaths(communities_path, std::to_string(community)));
+        const std::string path =
+            JoinPaths(communities_path, std::to_string(community));
+        try {
+          WriteReconstructionAtomically(*largest, path);
+        } catch (const std::exception& error) {
+          LOG(WARNING) << "Could not write " << path << ": " << error.what()
+                       << "; the community still takes part in the merge.";
+        }
       }
       LOG(INFO) << StringPrintf(
           "Community %d done: %d of %d images registered, %d points",
@@ -269,30 +275,6 @@ std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
   return similarities;
 }
 
-// A community model alone in its part, without the images it borrowed from
-// its neighbours (they belong to other models).
-std::shared_ptr<Reconstruction> KeepOwnImages(
-    const std::unordered_set<image_t>& own_image_ids,
-    std::shared_ptr<Reconstruction> model) {
-  bool has_borrowed_images = false;
-  for (const image_t image_id : model->RegImageIds()) {
-    has_borrowed_images |= own_image_ids.count(image_id) == 0;
-  }
-  if (!has_borrowed_images) {
-    return model;
-  }
-  auto own = std::make_shared<Reconstruction>();
-  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
-  JoinReconstructions(
-      {model.get()}, {Sim3d()}, {own_image_ids}, own.get(), &point3D_ids);
-  for (const point3D_t point3D_id : own->Point3DIds()) {
-    if (own->Point3D(point3D_id).track.Length() < 2) {
-      own->DeletePoint3D(point3D_id);
-    }
-  }
-  return own;
-}
-
 // Joins the communities of one part (connected by kept similarities) into
 // one model in the global frame, merges their corresponding points and
 // refines the result on the part's images plus `extra_image_names` (images
@@ -367,8 +349,6 @@ std::shared_ptr<Reconstruction> MergePart(
       static_cast<int>(merged->NumPoints3D()),
       static_cast<int>(num_merged_points));
 
-  Timer timer;
-  timer.Start();
   std::shared_ptr<DatabaseCache> database_cache;
   {
     const Database database(options.database_path);
@@ -378,11 +358,14 @@ std::shared_ptr<Reconstruction> MergePart(
         options.incremental_options.ignore_watermarks,
         part_image_names);
   }
+  Timer timer;
+  timer.Start();
   const MergedModelRefinementSummary refinement =
       RefineMergedModel(options.refinement,
                         options.incremental_options,
                         std::move(database_cache),
                         merged);
+  *refinement_seconds += timer.ElapsedSeconds();
   LOG(INFO) << StringPrintf(
       "Merged model: %d images, %d points, mean reprojection error %.3f px "
       "(%.3f px before refinement), %d images newly registered",
@@ -394,7 +377,6 @@ std::shared_ptr<Reconstruction> MergePart(
   if (options.incremental_options.extract_colors) {
     merged->ExtractColorsForAllImages(options.image_path);
   }
-  *refinement_seconds += timer.ElapsedSeconds();
   return merged;
 }
 
@@ -598,14 +580,36 @@ void CommunityMapperController::Run() {
 
   PrintHeading1("4. Merging the communities and bundle adjustment");
   phase_timer.Restart();
-  // Images of communities without a model are offered to the largest part,
-  // whose refinement registers those it can.
-  std::unordered_set<std::string> unmodelled_image_names;
+  // The images of a community without a model are offered to the part its
+  // view-graph edges lead to most, whose refinement registers those it can.
+  std::map<int, std::unordered_set<std::string>> unmodelled_images_of_part;
   for (size_t c = 0; c < models.size(); ++c) {
-    if (!models[c]) {
-      for (const image_t image_id : communities.own_image_ids[c]) {
-        unmodelled_image_names.insert(communities.name_of_image.at(image_id));
+    if (models[c]) {
+      continue;
+    }
+    std::map<int, int> num_edges_to_part;
+    for (const ViewGraph::Edge& edge : view_graph.Edges()) {
+      const int community1 = partition.membership[edge.vertex1];
+      const int community2 = partition.membership[edge.vertex2];
+      if ((community1 == static_cast<int>(c)) !=
+          (community2 == static_cast<int>(c))) {
+        const int other =
+            community1 == static_cast<int>(c) ? community2 : community1;
+        if (models[other]) {
+          ++num_edges_to_part[averaging.part_of_community[other]];
+        }
       }
+    }
+    const auto best = std::max_element(
+        num_edges_to_part.begin(),
+        num_edges_to_part.end(),
+        [](const auto& a, const auto& b) { return a.second < b.second; });
+    if (best == num_edges_to_part.end()) {
+      continue;
+    }
+    for (const image_t image_id : communities.own_image_ids[c]) {
+      unmodelled_images_of_part[best->first].insert(
+          communities.name_of_image.at(image_id));
     }
   }
   double refinement_seconds = 0.0;
@@ -622,8 +626,24 @@ void CommunityMapperController::Run() {
     }
     if (part_communities.size() == 1) {
       const int c = part_communities[0];
-      merged_models.push_back(
-          KeepOwnImages(communities.own_image_ids[c], models[c]));
+      std::shared_ptr<Reconstruction> model =
+          RestrictToImages(communities.own_image_ids[c], models[c]);
+      models[c].reset();
+      if (model->NumRegImages() < 2) {
+        LOG(WARNING) << StringPrintf(
+            "Community %d, alone in its part, registered fewer than 2 of its "
+            "own images: no model for it.",
+            c);
+        continue;
+      }
+      if (unmodelled_images_of_part.count(part) > 0) {
+        LOG(WARNING) << StringPrintf(
+            "%d images of unreconstructed communities border community %d, "
+            "which is not merged with others: they stay unregistered.",
+            static_cast<int>(unmodelled_images_of_part[part].size()),
+            c);
+      }
+      merged_models.push_back(std::move(model));
       continue;
     }
 
@@ -633,9 +653,7 @@ void CommunityMapperController::Run() {
                                       similarities,
                                       inlier_point3D_ids,
                                       averaging,
-                                      merged_models.empty()
-                                          ? unmodelled_image_names
-                                          : std::unordered_set<std::string>(),
+                                      unmodelled_images_of_part[part],
                                       &models,
                                       &refinement_seconds));
   }
@@ -653,13 +671,18 @@ void CommunityMapperController::Run() {
   }
   if (!options_.output_path.empty() && !merged_models.empty()) {
     const std::string path = JoinPaths(options_.output_path, "communities.ply");
-    WriteTextFileAtomically(
-        CommunityCamerasToPly(*merged_models[0], summary_.community_of_image),
-        path);
+    try {
+      WriteTextFileAtomically(
+          CommunityCamerasToPly(*merged_models[0], summary_.community_of_image),
+          path);
+    } catch (const std::exception& error) {
+      LOG(WARNING) << "Could not write " << path << ": " << error.what();
+    }
   }
-  // The merge (joining the models, merging their points) and the final
-  // bundle adjustment (with the registration of left-over images, track
-  // completion and filtering) are reported apart.
+  // The merge (joining the models, merging their points, loading the
+  // correspondences, colours) and the final bundle adjustment (with the
+  // registration of left-over images, track completion and filtering) are
+  // reported apart.
   const double merge_total = phase_timer.ElapsedSeconds();
   summary_.phase_seconds.emplace_back("Merge",
                                       merge_total - refinement_seconds);

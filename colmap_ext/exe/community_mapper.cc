@@ -306,6 +306,16 @@ bool RunCommunityMapperImpl(const CommunityMapperController::Options& options,
   const std::string& output_path = options.output_path;
   std::vector<std::string> outputs = {
       JoinPaths(output_path, "communities.txt") + " (the partition)"};
+  if (options.partition_only && overwrite) {
+    // The merged models of an earlier run (allowed to be replaced) do not
+    // belong to the new partition.
+    boost::system::error_code error;
+    for (const std::string& model : ExistingModels(output_path)) {
+      LOG(INFO) << "Removing " << model << " of an earlier run";
+      boost::filesystem::remove_all(model, error);
+    }
+    boost::filesystem::remove(JoinPaths(output_path, "communities.ply"), error);
+  }
   if (!options.partition_only) {
     if (reconstruction_manager->Size() == 0) {
       LOG(ERROR) << "No community could be reconstructed: no model written.";
@@ -316,7 +326,8 @@ bool RunCommunityMapperImpl(const CommunityMapperController::Options& options,
     } catch (const std::exception& error) {
       LOG(ERROR) << "Writing the models to " << output_path
                  << " failed: " << error.what()
-                 << ". Models already in place are complete; check the free "
+                 << ". No model folder is half-written, but those after the "
+                    "failed one may still be an earlier run's; check the free "
                     "space and permissions, then run again.";
       return false;
     }

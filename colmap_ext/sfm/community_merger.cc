@@ -141,6 +141,32 @@ size_t MergeCorrespondingPoints(
   return num_merged;
 }
 
+std::shared_ptr<Reconstruction> RestrictToImages(
+    const std::unordered_set<image_t>& image_ids,
+    std::shared_ptr<Reconstruction> reconstruction) {
+  THROW_CHECK_NOTNULL(reconstruction);
+  bool has_other_images = false;
+  for (const image_t image_id : reconstruction->RegImageIds()) {
+    has_other_images |= image_ids.count(image_id) == 0;
+  }
+  if (!has_other_images) {
+    return reconstruction;
+  }
+  auto restricted = std::make_shared<Reconstruction>();
+  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
+  JoinReconstructions({reconstruction.get()},
+                      {Sim3d()},
+                      {image_ids},
+                      restricted.get(),
+                      &point3D_ids);
+  for (const point3D_t point3D_id : restricted->Point3DIds()) {
+    if (restricted->Point3D(point3D_id).track.Length() < 2) {
+      restricted->DeletePoint3D(point3D_id);
+    }
+  }
+  return restricted;
+}
+
 namespace {
 
 // Global bundle adjustment of all registered images, the gauge fixed as

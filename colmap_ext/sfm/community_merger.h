@@ -54,6 +54,15 @@ size_t MergeCorrespondingPoints(
     const std::vector<std::pair<point3D_t, point3D_t>>& point3D_pairs,
     Reconstruction* reconstruction);
 
+// The reconstruction without the registered images outside `image_ids`
+// (e.g. a community model without the images it borrowed from its
+// neighbours), their observations, and the points left with fewer than two
+// observations. Returns `reconstruction` itself if all its registered images
+// are in `image_ids`, a new reconstruction otherwise.
+std::shared_ptr<Reconstruction> RestrictToImages(
+    const std::unordered_set<image_t>& image_ids,
+    std::shared_ptr<Reconstruction> reconstruction);
+
 struct MergedModelRefinementOptions {
   // Try to register the images that no community registered.
   bool register_remaining_images = true;

@@ -153,5 +153,36 @@ TEST_F(JoinReconstructionsTest, MergesCorrespondingPoints) {
   EXPECT_LT(merged.ComputeMeanReprojectionError(), 1e-6);
 }
 
+TEST_F(JoinReconstructionsTest, RestrictToImagesDropsBorrowedImages) {
+  // Community 1's model with the three images it borrowed from community 2.
+  auto model1 = std::make_shared<Reconstruction>(
+      CommunityModel(scene_.ground_truth, images1_, community_from_world_[0]));
+  const std::shared_ptr<Reconstruction> own = RestrictToImages(owned1_, model1);
+
+  ASSERT_NE(own, model1);
+  EXPECT_EQ(own->NumRegImages(), owned1_.size());
+  for (const image_t image_id : own->RegImageIds()) {
+    EXPECT_EQ(owned1_.count(image_id), 1);
+    // Poses stay in the community's frame.
+    EXPECT_LT((own->Image(image_id).ProjectionCenter() -
+               model1->Image(image_id).ProjectionCenter())
+                  .norm(),
+              1e-9);
+  }
+  for (const auto& point3D : own->Points3D()) {
+    EXPECT_GE(point3D.second.track.Length(), 2);
+    for (const auto& track_el : point3D.second.track.Elements()) {
+      EXPECT_EQ(owned1_.count(track_el.image_id), 1);
+    }
+  }
+  EXPECT_GT(own->NumPoints3D(), 0);
+  EXPECT_LE(own->NumPoints3D(), model1->NumPoints3D());
+
+  // A model of its own images only is returned as it is.
+  auto model2 = std::make_shared<Reconstruction>(
+      CommunityModel(scene_.ground_truth, images2_, community_from_world_[1]));
+  EXPECT_EQ(RestrictToImages(owned2_, model2), model2);
+}
+
 }  // namespace
 }  // namespace colmap

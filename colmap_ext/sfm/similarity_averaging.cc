@@ -366,7 +366,8 @@ SimilarityAveragingResult AverageSimilarities(
       result.edges[e] = ComputeResiduals(relative_similarities[e],
                                          result.world_from_community);
       result.edges[e].kept = true;
-      // Written so that a non-finite residual counts as too large.
+      // Written so that a non-finite residual counts as too large; such an
+      // edge is rejected in any round.
       const bool within_bounds =
           result.edges[e].rotation_residual_deg <=
               options.max_rotation_residual_deg &&
@@ -374,7 +375,12 @@ SimilarityAveragingResult AverageSimilarities(
               options.max_log_scale_residual &&
           result.edges[e].relative_translation_residual <=
               options.max_relative_translation_residual;
-      if (round < options.max_num_rejection_rounds && !within_bounds) {
+      const bool finite =
+          std::isfinite(result.edges[e].rotation_residual_deg) &&
+          std::isfinite(result.edges[e].log_scale_residual) &&
+          std::isfinite(result.edges[e].relative_translation_residual);
+      if (!within_bounds &&
+          (round < options.max_num_rejection_rounds || !finite)) {
         result.edges[e].kept = false;
         rejected = true;
       }
