@@ -179,6 +179,9 @@ TEST_F(CommunityMapperInputTest, InvalidOptionValues) {
                 "--CommunityMapper.community_ba_function_tolerance -2",
                 "community_ba_function_tolerance is -2");
   ExpectRefusal(good_database_,
+                "--CommunityMapper.community_ba_global_ratio 1",
+                "community_ba_global_ratio is 1: it must be greater than 1");
+  ExpectRefusal(good_database_,
                 "--CommunityMapper.ba_function_tolerance -1",
                 "ba_function_tolerance is -1: it must be 0 or more");
   ExpectRefusal(good_database_,
@@ -267,6 +270,7 @@ TEST_F(CommunityMapperInputTest, HelpListsEveryOptionWithItsDefault) {
         "--CommunityMapper.partition_only arg (=0)",
         "--CommunityMapper.num_workers arg (=-1)",
         "--CommunityMapper.overwrite arg (=0)",
+        "--CommunityMapper.community_ba_global_ratio arg (=1.3999",
         "--Mapper.min_num_matches arg (=15)",
         "--project_path"}) {
     EXPECT_NE(output.find(option), std::string::npos) << option;

@@ -88,15 +88,8 @@ Models ReconstructCommunities(const CommunityMapperController::Options& options,
     ScopedLogTag log_tag(StringPrintf("community %d", community));
     try {
       auto incremental_options = std::make_shared<IncrementalMapperOptions>(
-          options.incremental_options);
-      incremental_options->image_names = communities.image_names[community];
-      if (incremental_options->num_threads < 0) {
-        incremental_options->num_threads = num_threads_per_worker;
-      }
-      if (options.community_ba_function_tolerance >= 0) {
-        incremental_options->ba_global_function_tolerance =
-            options.community_ba_function_tolerance;
-      }
+          options.CommunityIncrementalOptions(
+              communities.image_names[community], num_threads_per_worker));
       LOG(INFO) << StringPrintf(
           "Reconstructing community %d (%d images, %d shared with "
           "neighbours)",
@@ -424,6 +417,26 @@ int CommunityMapperController::Options::MinNumMatches() const {
                              : incremental_options.min_num_matches;
 }
 
+IncrementalMapperOptions
+CommunityMapperController::Options::CommunityIncrementalOptions(
+    const std::unordered_set<std::string>& image_names,
+    const int num_threads) const {
+  IncrementalMapperOptions community_options = incremental_options;
+  community_options.image_names = image_names;
+  if (community_options.num_threads < 0) {
+    community_options.num_threads = num_threads;
+  }
+  if (community_ba_function_tolerance >= 0) {
+    community_options.ba_global_function_tolerance =
+        community_ba_function_tolerance;
+  }
+  if (community_ba_global_ratio > 0) {
+    community_options.ba_global_images_ratio = community_ba_global_ratio;
+    community_options.ba_global_points_ratio = community_ba_global_ratio;
+  }
+  return community_options;
+}
+
 bool CommunityMapperController::Options::Check() const {
   CHECK_OPTION_GE(modularity_threshold, 0.0);
   CHECK_OPTION_LT(modularity_threshold, 1.0);
@@ -435,6 +448,8 @@ bool CommunityMapperController::Options::Check() const {
   CHECK_OPTION_NE(num_workers, 0);
   CHECK_OPTION(community_ba_function_tolerance == -1 ||
                community_ba_function_tolerance >= 0);
+  CHECK_OPTION(community_ba_global_ratio == -1 ||
+               community_ba_global_ratio > 1);
   CHECK_OPTION(pairwise_similarity.Check());
   CHECK_OPTION(similarity_averaging.Check());
   CHECK_OPTION(refinement.Check());

@@ -29,6 +29,7 @@
 
 #include <memory>
 #include <string>
+#include <unordered_set>
 #include <vector>
 
 namespace colmap {
@@ -91,6 +92,17 @@ class CommunityMapperController : public BaseController {
     // made the communities' reconstruction 17% faster.
     double community_ba_function_tolerance = 1e-6;
 
+    // Growth of a community's model (in registered images or in points)
+    // after which its incremental mapper runs the next global bundle
+    // adjustment; -1 takes incremental_options.ba_global_images_ratio and
+    // ba_global_points_ratio (COLMAP's 1.1). Local bundle adjustment still
+    // follows every registration, and the merged model is adjusted as a
+    // whole at the end. Measured with 1.4 instead of 1.1, on a generated
+    // scene of 1000 images in 6 communities: communities 24% faster, same
+    // accuracy; on one of 530 images with a camera per image and no loop:
+    // 17% faster, same accuracy, 529 instead of 530 images registered.
+    double community_ba_global_ratio = 1.4;
+
     // Pairwise similarity estimation between connected communities.
     PairwiseSimilarityOptions pairwise_similarity;
 
@@ -106,6 +118,13 @@ class CommunityMapperController : public BaseController {
 
     // The minimum number of matches in effect.
     int MinNumMatches() const;
+
+    // The incremental mapper's options for one community's images:
+    // incremental_options with the community_* settings above in effect, and
+    // num_threads threads if incremental_options leaves it to the machine.
+    IncrementalMapperOptions CommunityIncrementalOptions(
+        const std::unordered_set<std::string>& image_names,
+        int num_threads) const;
 
     bool Check() const;
   };

@@ -63,6 +63,14 @@ bool CheckCommandOptions(const CommunityMapperController::Options& options) {
         "0 or more, or -1 for --Mapper.ba_global_function_tolerance.",
         options.community_ba_function_tolerance));
   }
+  if (options.community_ba_global_ratio != -1 &&
+      !(options.community_ba_global_ratio > 1)) {
+    fail(StringPrintf(
+        "--CommunityMapper.community_ba_global_ratio is %g: it must be "
+        "greater than 1, or -1 for --Mapper.ba_global_images_ratio and "
+        "--Mapper.ba_global_points_ratio.",
+        options.community_ba_global_ratio));
+  }
   if (options.refinement.function_tolerance < 0) {
     fail(StringPrintf(
         "--CommunityMapper.ba_function_tolerance is %g: it must be 0 or more.",
@@ -406,6 +414,11 @@ int RunCommunityMapper(int argc, char** argv) {
       &mapper_options.community_ba_function_tolerance,
       "relative function tolerance of the communities' global bundle "
       "adjustments (-1: Mapper.ba_global_function_tolerance)");
+  add("community_ba_global_ratio",
+      &mapper_options.community_ba_global_ratio,
+      "growth of a community's model (images or points) after which it is "
+      "bundle adjusted as a whole (-1: Mapper.ba_global_images_ratio and "
+      "Mapper.ba_global_points_ratio)");
   add("pairwise_max_relative_error",
       &mapper_options.pairwise_similarity.max_relative_error,
       "similarity RANSAC inlier threshold, relative to the spread of the "
