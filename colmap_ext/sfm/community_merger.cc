@@ -281,8 +281,8 @@ MergedModelRefinementSummary RefineMergedModel(
   // As the incremental mapper's global refinement: complete and merge tracks
   // over the whole correspondence graph, re-triangulate, then alternate
   // bundle adjustment and filtering until few observations change. The first
-  // adjustment is the robust one (if asked): where it leaves few
-  // observations to filter, it is the only one.
+  // adjustment is the robust one (if asked); the last is always least
+  // squares on the observations that survived the filtering.
   timer.Restart();
   const size_t num_completed = mapper.CompleteAndMergeTracks(triangulation);
   const size_t num_retriangulated = mapper.Retriangulate(triangulation);
@@ -296,7 +296,8 @@ MergedModelRefinementSummary RefineMergedModel(
       BundleAdjustmentOptions::LossFunctionType::SOFT_L1;
   robust_options.loss_function_scale = 1.0;
   const int num_refinements =
-      std::max(1, mapper_options.ba_global_max_refinements);
+      std::max(options.robust_first_adjustment ? 2 : 1,
+               mapper_options.ba_global_max_refinements);
   for (int i = 0; i < num_refinements; ++i) {
     const size_t num_observations = reconstruction->ComputeNumObservations();
     const bool robust = i == 0 && options.robust_first_adjustment;
@@ -316,7 +317,7 @@ MergedModelRefinementSummary RefineMergedModel(
                               robust ? " (robust loss)" : "",
                               static_cast<int>(num_changed),
                               changed);
-    if (changed < mapper_options.ba_global_max_refinement_change) {
+    if (!robust && changed < mapper_options.ba_global_max_refinement_change) {
       break;
     }
   }
