@@ -282,8 +282,8 @@ def markdown(rows, scene_knobs):
 
 
 def scaling(rows, scene_knobs):
-    """Wall time of every method per scene, its growth from the previous
-    scene, and the partition's share of community_mapper's time."""
+    """Wall time of every method per scene (smallest first), its growth from
+    the previous scene, and the partition's share of community_mapper's time."""
     if len(scene_knobs) < 2:
         return []
     methods = [method for method in METHODS
@@ -294,7 +294,8 @@ def scaling(rows, scene_knobs):
              " | partition share of community_mapper |",
              "|" + "---|" * (len(methods) + 3)]
     previous = {}
-    for scene in scene_knobs:
+    images = {row["scene"]: row["images"] for row in rows}
+    for scene in sorted(scene_knobs, key=lambda scene: images[scene]):
         scene_rows = {row["method"]: row for row in rows
                       if row["scene"] == scene}
         cells = []
