@@ -172,19 +172,14 @@ Models ReconstructCommunities(const CommunityMapperController::Options& options,
   return models;
 }
 
-// The pairwise similarity of every pair of reconstructed communities joined
-// by view-graph edges, from the verified matches of those edges.
-std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
-    const CommunityMapperController::Options& options,
-    const ViewGraph& view_graph,
-    const CommunityPartition& partition,
-    const Models& models,
-    std::vector<std::vector<std::pair<point3D_t, point3D_t>>>*
-        inlier_point3D_ids,
-    CommunityMapperController::Summary* summary) {
-  // Cross edges by community pair, oriented from the smaller community id.
-  std::map<std::pair<int, int>, std::vector<std::pair<image_t, image_t>>>
-      cross_edges;
+// View-graph edges between communities, by community pair (the smaller id
+// first), each as the pair of its images in that order.
+using CrossEdges =
+    std::map<std::pair<int, int>, std::vector<std::pair<image_t, image_t>>>;
+
+CrossEdges GroupCrossEdges(const ViewGraph& view_graph,
+                           const CommunityPartition& partition) {
+  CrossEdges cross_edges;
   for (const ViewGraph::Edge& edge : view_graph.Edges()) {
     int community1 = partition.membership[edge.vertex1];
     int community2 = partition.membership[edge.vertex2];
@@ -199,6 +194,18 @@ std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
     }
     cross_edges[{community1, community2}].emplace_back(image_id1, image_id2);
   }
+  return cross_edges;
+}
+
+// The pairwise similarity of every pair of reconstructed communities joined
+// by view-graph edges, from the verified matches of those edges.
+std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
+    const CommunityMapperController::Options& options,
+    const CrossEdges& cross_edges,
+    const Models& models,
+    std::vector<std::vector<std::pair<point3D_t, point3D_t>>>*
+        inlier_point3D_ids,
+    CommunityMapperController::Summary* summary) {
   summary->num_community_pairs = static_cast<int>(cross_edges.size());
 
   const Database database(options.database_path);
@@ -563,13 +570,10 @@ void CommunityMapperController::Run() {
   PrintHeading1("3. Global similarity averaging");
   phase_timer.Restart();
   std::vector<std::vector<std::pair<point3D_t, point3D_t>>> inlier_point3D_ids;
+  const CrossEdges cross_edges = GroupCrossEdges(view_graph, partition);
   const std::vector<RelativeSimilarity> similarities =
-      EstimatePairwiseSimilarities(options_,
-                                   view_graph,
-                                   partition,
-                                   models,
-                                   &inlier_point3D_ids,
-                                   &summary_);
+      EstimatePairwiseSimilarities(
+          options_, cross_edges, models, &inlier_point3D_ids, &summary_);
   const SimilarityAveragingResult averaging =
       AverageSimilarities(summary_.community_num_registered,
                           similarities,
@@ -597,33 +601,29 @@ void CommunityMapperController::Run() {
   phase_timer.Restart();
   // The images of a community without a model are offered to the part its
   // view-graph edges lead to most, whose refinement registers those it can.
+  std::map<int, std::map<int, size_t>> num_edges_to_part;
+  for (const auto& pair_and_edges : cross_edges) {
+    const int community1 = pair_and_edges.first.first;
+    const int community2 = pair_and_edges.first.second;
+    if (!models[community1] != !models[community2]) {
+      const int unmodelled = models[community1] ? community2 : community1;
+      const int modelled = models[community1] ? community1 : community2;
+      num_edges_to_part[unmodelled][averaging.part_of_community[modelled]] +=
+          pair_and_edges.second.size();
+    }
+  }
   std::map<int, std::unordered_set<std::string>> unmodelled_images_of_part;
-  for (size_t c = 0; c < models.size(); ++c) {
-    if (models[c]) {
-      continue;
-    }
-    std::map<int, int> num_edges_to_part;
-    for (const ViewGraph::Edge& edge : view_graph.Edges()) {
-      const int community1 = partition.membership[edge.vertex1];
-      const int community2 = partition.membership[edge.vertex2];
-      if ((community1 == static_cast<int>(c)) !=
-          (community2 == static_cast<int>(c))) {
-        const int other =
-            community1 == static_cast<int>(c) ? community2 : community1;
-        if (models[other]) {
-          ++num_edges_to_part[averaging.part_of_community[other]];
-        }
-      }
-    }
-    const auto best = std::max_element(
-        num_edges_to_part.begin(),
-        num_edges_to_part.end(),
-        [](const auto& a, const auto& b) { return a.second < b.second; });
-    if (best == num_edges_to_part.end()) {
-      continue;
-    }
-    for (const image_t image_id : communities.own_image_ids[c]) {
-      unmodelled_images_of_part[best->first].insert(
+  for (const auto& community_and_counts : num_edges_to_part) {
+    const auto& counts = community_and_counts.second;
+    const int best_part = std::max_element(counts.begin(),
+                                           counts.end(),
+                                           [](const auto& a, const auto& b) {
+                                             return a.second < b.second;
+                                           })
+                              ->first;
+    for (const image_t image_id :
+         communities.own_image_ids[community_and_counts.first]) {
+      unmodelled_images_of_part[best_part].insert(
           communities.name_of_image.at(image_id));
     }
   }
