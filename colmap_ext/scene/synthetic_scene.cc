@@ -120,6 +120,8 @@ bool SyntheticSceneOptions::Check() const {
   CHECK_OPTION_GT(image_width, 0);
   CHECK_OPTION_GT(image_height, 0);
   CHECK_OPTION_GT(focal_length, 0);
+  CHECK_OPTION_GE(focal_length_noise, 0);
+  CHECK_OPTION_LT(focal_length_noise, 0.3);
   CHECK_OPTION_GE(keypoint_noise, 0);
   CHECK_OPTION_GE(num_distractor_keypoints, 0);
   CHECK_OPTION_GT(max_viewing_distance, 0);
@@ -127,6 +129,7 @@ bool SyntheticSceneOptions::Check() const {
   CHECK_OPTION_GE(outlier_match_ratio, 0);
   CHECK_OPTION_GE(num_false_pairs, 0);
   CHECK_OPTION_GE(false_pair_num_matches, 1);
+  CHECK_OPTION_GE(num_repeated_structure_pairs, 0);
   return true;
 }
 
@@ -174,19 +177,33 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
     links.clear();
   }
 
+  // With repeated structure, every tower is a copy of the first: tower
+  // point i of every landmark has the same angle and height.
+  const bool repeated_towers = options.num_repeated_structure_pairs > 0;
+  const int num_tower_points = (7 * options.num_points_per_cluster) / 10;
+  std::vector<std::pair<double, double>> tower_layout;
   std::vector<ScenePoint> points;
+  // Per point: its index in the tower layout, -1 for other points.
+  std::vector<int> tower_point_index;
   for (int c = 0; c < num_clusters; ++c) {
-    const int num_tower_points = (7 * options.num_points_per_cluster) / 10;
     for (int i = 0; i < options.num_points_per_cluster; ++i) {
       ScenePoint point;
       if (i < num_tower_points) {
-        const double angle = random.Uniform(0, 2 * M_PI);
+        if (c == 0 || !repeated_towers) {
+          const double angle = random.Uniform(0, 2 * M_PI);
+          tower_layout.emplace_back(angle, random.Uniform(0, kTowerHeight));
+        }
+        const std::pair<double, double>& layout =
+            tower_layout[repeated_towers ? i : tower_layout.size() - 1];
+        const double angle = layout.first;
+        const double height = layout.second;
         const Eigen::Vector3d radial(std::cos(angle), std::sin(angle), 0);
         point.xyz = Eigen::Vector3d(towers[c].x(), towers[c].y(), 0) +
-                    kTowerRadius * radial +
-                    Eigen::Vector3d(0, 0, random.Uniform(0, kTowerHeight));
+                    kTowerRadius * radial + Eigen::Vector3d(0, 0, height);
         point.normal = radial;
+        tower_point_index.push_back(i);
       } else {
+        tower_point_index.push_back(-1);
         const double angle = random.Uniform(0, 2 * M_PI);
         const double radius = std::sqrt(random.Uniform(
             kTowerRadius * kTowerRadius, kGroundRadius * kGroundRadius));
@@ -214,6 +231,7 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
           Eigen::Vector3d(xy.x(), xy.y(), random.Uniform(0, kWallHeight));
       point.normal = Eigen::Vector3d(-left.x(), -left.y(), 0);
       points.push_back(point);
+      tower_point_index.push_back(-1);
     }
   }
 
@@ -280,12 +298,20 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
                                   options.focal_length,
                                   options.image_width,
                                   options.image_height);
+  // The database holds the nominal focal length as a prior (as from EXIF),
+  // the ground truth the camera's true one.
   auto add_camera = [&]() {
     Camera camera = camera_template;
+    camera.has_prior_focal_length = true;
     camera.camera_id =
         database != nullptr
             ? database->WriteCamera(camera)
             : static_cast<camera_t>(reconstruction.NumCameras() + 1);
+    if (options.focal_length_noise > 0) {
+      const double factor = std::max(
+          0.5, 1.0 + random.Gaussian(options.focal_length_noise));
+      camera.SetFocalLength(factor * options.focal_length);
+    }
     reconstruction.AddCamera(camera);
     return camera.camera_id;
   };
@@ -537,6 +563,85 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
             image_ids[idx1], image_ids[idx2], two_view_geometry);
       }
       break;
+    }
+  }
+
+  // Falsely verified pairs from repeated structure: images of two different
+  // landmarks matched on the tower points they both see in the shared
+  // layout, with the relative pose that stacks the second tower on the
+  // first.
+  if (repeated_towers) {
+    // Per image: tower layout index -> keypoint.
+    std::vector<std::unordered_map<int, point2D_t>> tower_keypoints(num_images);
+    for (size_t idx = 0; idx < num_images; ++idx) {
+      for (const auto& observation : observations[idx]) {
+        const int layout_index = tower_point_index[observation.first - 1];
+        if (layout_index >= 0) {
+          tower_keypoints[idx].emplace(layout_index, observation.second);
+        }
+      }
+    }
+    std::vector<std::pair<size_t, size_t>> candidates;
+    for (size_t idx1 = 0; idx1 < num_images; ++idx1) {
+      const int cluster1 = scene->image_cluster.at(image_ids[idx1]);
+      for (size_t idx2 = idx1 + 1; idx2 < num_images; ++idx2) {
+        const int cluster2 = scene->image_cluster.at(image_ids[idx2]);
+        if (cluster1 < 0 || cluster2 < 0 || cluster1 == cluster2 ||
+            sharing_pairs.count(idx1 * num_images + idx2) > 0) {
+          continue;
+        }
+        int num_common = 0;
+        for (const auto& layout_and_keypoint : tower_keypoints[idx1]) {
+          num_common += tower_keypoints[idx2].count(layout_and_keypoint.first);
+        }
+        if (num_common >= options.min_num_inliers) {
+          candidates.emplace_back(idx1, idx2);
+        }
+      }
+    }
+    random.Shuffle(&candidates);
+    candidates.resize(std::min<size_t>(
+        candidates.size(), options.num_repeated_structure_pairs));
+    std::sort(candidates.begin(), candidates.end());
+    for (const auto& candidate : candidates) {
+      const size_t idx1 = candidate.first;
+      const size_t idx2 = candidate.second;
+      sharing_pairs.insert(idx1 * num_images + idx2);
+      ++scene->num_repeated_structure_pairs;
+      if (database == nullptr) {
+        continue;
+      }
+      FeatureMatches matches;
+      for (const auto& layout_and_keypoint : tower_keypoints[idx1]) {
+        const auto it = tower_keypoints[idx2].find(layout_and_keypoint.first);
+        if (it != tower_keypoints[idx2].end()) {
+          matches.emplace_back(layout_and_keypoint.second, it->second);
+        }
+      }
+      random.Shuffle(&matches);
+      // The second image as if its tower stood where the first one's does.
+      const int cluster1 = scene->image_cluster.at(image_ids[idx1]);
+      const int cluster2 = scene->image_cluster.at(image_ids[idx2]);
+      Rigid3d second_tower_from_first;
+      second_tower_from_first.translation.head<2>() =
+          towers[cluster2] - towers[cluster1];
+      const Image& image1 = reconstruction.Image(image_ids[idx1]);
+      const Image& image2 = reconstruction.Image(image_ids[idx2]);
+      TwoViewGeometry two_view_geometry;
+      two_view_geometry.config = TwoViewGeometry::CALIBRATED;
+      two_view_geometry.cam2_from_cam1 = image2.CamFromWorld() *
+                                         second_tower_from_first *
+                                         Inverse(image1.CamFromWorld());
+      two_view_geometry.E =
+          EssentialMatrixFromPose(two_view_geometry.cam2_from_cam1);
+      two_view_geometry.F = FundamentalFromEssentialMatrix(
+          reconstruction.Camera(image2.CameraId()).CalibrationMatrix(),
+          two_view_geometry.E,
+          reconstruction.Camera(image1.CameraId()).CalibrationMatrix());
+      two_view_geometry.inlier_matches = matches;
+      database->WriteMatches(image_ids[idx1], image_ids[idx2], matches);
+      database->WriteTwoViewGeometry(
+          image_ids[idx1], image_ids[idx2], two_view_geometry);
     }
   }
 

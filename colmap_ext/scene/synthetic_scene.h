@@ -70,6 +70,11 @@ struct SyntheticSceneOptions {
   // one camera per image.
   bool single_camera = true;
 
+  // Relative standard deviation of every camera's true focal length around
+  // `focal_length`, the value the database holds (as a focal length read
+  // from EXIF, off by a few percent); 0: the database holds the true one.
+  double focal_length_noise = 0.0;
+
   // Standard deviation of the keypoint noise (pixels).
   double keypoint_noise = 0.5;
 
@@ -91,6 +96,15 @@ struct SyntheticSceneOptions {
   int num_false_pairs = 0;
   int false_pair_num_matches = 30;
 
+  // Number of falsely verified pairs from repeated structure: all towers
+  // are then copies of the first (the same points around their own centre)
+  // and such a pair, between images of two different landmarks that see at
+  // least `min_num_inliers` corresponding tower points, matches those
+  // points' keypoints. Unlike random false pairs, its matches agree with
+  // one rigid transform (the one that stacks one tower on the other), as
+  // the matches between two identical facades do.
+  int num_repeated_structure_pairs = 0;
+
   // Seed of the random number generator.
   unsigned int seed = 0;
 
@@ -108,6 +122,7 @@ struct SyntheticScene {
 
   int num_verified_pairs = 0;
   int num_false_pairs = 0;
+  int num_repeated_structure_pairs = 0;
 };
 
 // Generates the scene and, if `database` is given, writes it to the

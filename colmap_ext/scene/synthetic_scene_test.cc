@@ -153,6 +153,94 @@ TEST(SynthesizeCommunityScene, ClustersAreDenseWalkwaysSparse) {
   }
 }
 
+TEST(SynthesizeCommunityScene, FocalLengthsOffTheNominalValue) {
+  const std::string test_dir = CreateTestDir();
+  SyntheticSceneOptions options = SmallScene();
+  options.single_camera = false;
+  options.focal_length_noise = 0.05;
+  Database database(JoinPaths(test_dir, "database.db"));
+  SyntheticScene scene;
+  SynthesizeCommunityScene(options, &scene, &database);
+  // The database holds the nominal focal length as a prior; the truth, one
+  // camera per image, spreads around it by about 5%.
+  double sum_sq = 0;
+  for (const Camera& camera : database.ReadAllCameras()) {
+    EXPECT_TRUE(camera.has_prior_focal_length);
+    EXPECT_EQ(camera.FocalLength(), options.focal_length);
+    const double relative =
+        scene.ground_truth.Camera(camera.camera_id).FocalLength() /
+            options.focal_length -
+        1;
+    sum_sq += relative * relative;
+  }
+  ASSERT_EQ(database.NumCameras(), scene.ground_truth.NumRegImages());
+  const double spread = std::sqrt(sum_sq / database.NumCameras());
+  EXPECT_GT(spread, 0.03);
+  EXPECT_LT(spread, 0.08);
+  // Keypoints are the projections by the true cameras.
+  Reconstruction reprojected = scene.ground_truth;
+  reprojected.UpdatePoint3DErrors();
+  EXPECT_LT(reprojected.ComputeMeanReprojectionError(), 1.0);
+}
+
+TEST(SynthesizeCommunityScene, RepeatedStructurePairsAgreeWithAStackedTower) {
+  const std::string test_dir = CreateTestDir();
+  SyntheticSceneOptions options = SmallScene();
+  options.num_clusters = 2;
+  options.num_images_per_link = 0;
+  options.num_repeated_structure_pairs = 8;
+  Database database(JoinPaths(test_dir, "database.db"));
+  SyntheticScene scene;
+  SynthesizeCommunityScene(options, &scene, &database);
+  const Reconstruction& truth = scene.ground_truth;
+  EXPECT_EQ(scene.num_repeated_structure_pairs, 8);
+
+  std::vector<image_pair_t> pair_ids;
+  std::vector<TwoViewGeometry> two_view_geometries;
+  database.ReadTwoViewGeometries(&pair_ids, &two_view_geometries);
+  int num_cross = 0;
+  for (size_t i = 0; i < pair_ids.size(); ++i) {
+    image_t image_id1;
+    image_t image_id2;
+    std::tie(image_id1, image_id2) = Database::PairIdToImagePair(pair_ids[i]);
+    const int cluster1 = scene.image_cluster.at(image_id1);
+    const int cluster2 = scene.image_cluster.at(image_id2);
+    if (cluster1 == cluster2) {
+      continue;
+    }
+    ++num_cross;
+    // Every match joins a point of one tower with the same point of the
+    // other: shifted by the towers' offset, the two 3D points coincide.
+    const Image& image1 = truth.Image(image_id1);
+    const Image& image2 = truth.Image(image_id2);
+    const auto& matches = two_view_geometries[i].inlier_matches;
+    ASSERT_GE(static_cast<int>(matches.size()), options.min_num_inliers);
+    // (The ground truth keeps only points seen twice in their own cluster;
+    // matches of the others cannot be checked.)
+    const Rigid3d cam2_from_cam1 = two_view_geometries[i].cam2_from_cam1;
+    int num_checked = 0;
+    for (const FeatureMatch& match : matches) {
+      const Point2D& point1 = image1.Point2D(match.point2D_idx1);
+      const Point2D& point2 = image2.Point2D(match.point2D_idx2);
+      if (!point1.HasPoint3D() || !point2.HasPoint3D()) {
+        continue;
+      }
+      const Eigen::Vector3d& xyz1 = truth.Point3D(point1.point3D_id).xyz;
+      const Eigen::Vector3d& xyz2 = truth.Point3D(point2.point3D_id).xyz;
+      EXPECT_NEAR((xyz2 - xyz1).norm(), options.landmark_spacing, 1e-6);
+      EXPECT_NEAR((xyz2 - xyz1).z(), 0, 1e-6);
+      // The stored relative pose is the one of the stacked towers.
+      EXPECT_LT((cam2_from_cam1 * (image1.CamFromWorld() * xyz1) -
+                 image2.CamFromWorld() * xyz2)
+                    .norm(),
+                1e-6);
+      ++num_checked;
+    }
+    EXPECT_GE(num_checked, 5);
+  }
+  EXPECT_EQ(num_cross, 8);
+}
+
 TEST(SyntheticSceneOptions, Check) {
   SyntheticSceneOptions options;
   EXPECT_TRUE(options.Check());

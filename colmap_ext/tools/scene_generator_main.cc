@@ -42,6 +42,8 @@ int RunSceneGenerator(int argc, char** argv) {
   options.AddDefaultOption("image_height", &scene_options.image_height);
   options.AddDefaultOption("focal_length", &scene_options.focal_length);
   options.AddDefaultOption("single_camera", &scene_options.single_camera);
+  options.AddDefaultOption("focal_length_noise",
+                           &scene_options.focal_length_noise);
   options.AddDefaultOption("keypoint_noise", &scene_options.keypoint_noise);
   options.AddDefaultOption("num_distractor_keypoints",
                            &scene_options.num_distractor_keypoints);
@@ -53,6 +55,8 @@ int RunSceneGenerator(int argc, char** argv) {
   options.AddDefaultOption("num_false_pairs", &scene_options.num_false_pairs);
   options.AddDefaultOption("false_pair_num_matches",
                            &scene_options.false_pair_num_matches);
+  options.AddDefaultOption("num_repeated_structure_pairs",
+                           &scene_options.num_repeated_structure_pairs);
   options.AddDefaultOption("seed", &seed);
   options.Parse(argc, argv);
   scene_options.seed = static_cast<unsigned int>(seed);
@@ -92,7 +96,8 @@ int RunSceneGenerator(int argc, char** argv) {
 
   LOG(INFO) << StringPrintf(
       "Generated %d images (%d clusters of %d, %d per walkway), %d points, "
-      "%d verified pairs, %d false pairs in %.1fs -> %s",
+      "%d verified pairs, %d false pairs, %d repeated-structure pairs in "
+      "%.1fs -> %s",
       static_cast<int>(scene.ground_truth.NumRegImages()),
       scene_options.num_clusters,
       scene_options.num_images_per_cluster,
@@ -100,6 +105,7 @@ int RunSceneGenerator(int argc, char** argv) {
       static_cast<int>(scene.ground_truth.NumPoints3D()),
       scene.num_verified_pairs,
       scene.num_false_pairs,
+      scene.num_repeated_structure_pairs,
       timer.ElapsedSeconds(),
       output_path.c_str());
   return EXIT_SUCCESS;
