@@ -80,8 +80,11 @@ Models ReconstructCommunities(const CommunityMapperController::Options& options,
   }
 
   Models models(num_communities);
-  summary->community_num_registered.assign(num_communities, 0);
-  summary->community_num_models.assign(num_communities, 0);
+  summary->community_reports.assign(num_communities, CommunityModelReport());
+  for (int c = 0; c < num_communities; ++c) {
+    summary->community_reports[c].num_images =
+        static_cast<int>(communities.image_names[c].size());
+  }
   std::mutex summary_mutex;
 
   auto reconstruct = [&](const int community) {
@@ -150,10 +153,10 @@ Models ReconstructCommunities(const CommunityMapperController::Options& options,
 
       std::lock_guard<std::mutex> lock(summary_mutex);
       models[community] = largest;
-      summary->community_num_registered[community] =
-          static_cast<int>(largest->NumRegImages());
-      summary->community_num_models[community] =
-          static_cast<int>(reconstruction_manager->Size());
+      CommunityModelReport& report = summary->community_reports[community];
+      report.num_registered = static_cast<int>(largest->NumRegImages());
+      report.num_models = static_cast<int>(reconstruction_manager->Size());
+      report.mean_reprojection_error = largest->ComputeMeanReprojectionError();
     } catch (const std::exception& error) {
       LOG(ERROR) << StringPrintf(
           "Community %d failed: %s; it takes no part in the merge.",
@@ -201,6 +204,7 @@ CrossEdges GroupCrossEdges(const ViewGraph& view_graph,
 // by view-graph edges, from the verified matches of those edges.
 std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
     const CommunityMapperController::Options& options,
+    const ViewGraph& view_graph,
     const CrossEdges& cross_edges,
     const Models& models,
     std::vector<std::vector<std::pair<point3D_t, point3D_t>>>*
@@ -210,6 +214,17 @@ std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
 
   const Database database(options.database_path);
   std::vector<RelativeSimilarity> similarities;
+  std::unordered_set<image_pair_t> verified_pairs;
+  for (const ViewGraph::Edge& edge : view_graph.Edges()) {
+    verified_pairs.insert(
+        Database::ImagePairToPairId(view_graph.ImageIds()[edge.vertex1],
+                                    view_graph.ImageIds()[edge.vertex2]));
+  }
+  const auto is_verified_pair = [&verified_pairs](const image_t image_id1,
+                                                  const image_t image_id2) {
+    return verified_pairs.count(
+               Database::ImagePairToPairId(image_id1, image_id2)) > 0;
+  };
   for (const auto& pair_and_edges : cross_edges) {
     const int community1 = pair_and_edges.first.first;
     const int community2 = pair_and_edges.first.second;
@@ -245,19 +260,54 @@ std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
     }
     const PointCorrespondences correspondences =
         FindPointCorrespondences(model1, model2, cross_pairs);
+    // Every transform is checked against the matches it implies; one that
+    // contradicts them gives way to the next best.
+    CovisibilityCheck covisibility;
+    std::string rejected_checks;
+    int num_rejected = 0;
     const PairwiseSimilarity similarity = EstimatePairwiseSimilarity(
-        correspondences, options.pairwise_similarity);
+        correspondences,
+        options.pairwise_similarity,
+        [&](const PairwiseSimilarity& candidate) {
+          covisibility = CheckCovisibility(model1,
+                                           model2,
+                                           candidate.second_from_first,
+                                           is_verified_pair,
+                                           options.covisibility_check);
+          if (!covisibility.consistent) {
+            rejected_checks += StringPrintf(
+                " [%d inliers rejected: co-visible pairs verified %d of %d "
+                "across, %d of %d inside]",
+                candidate.num_inliers,
+                covisibility.num_verified_cross_pairs,
+                covisibility.num_predicted_cross_pairs,
+                covisibility.num_verified_internal_pairs,
+                covisibility.num_predicted_internal_pairs);
+          }
+          return covisibility.consistent;
+        },
+        &num_rejected);
     LOG(INFO) << StringPrintf(
         "Communities %d-%d: %d shared images, %d cross edges, %d point "
-        "correspondences, %d inliers, scale %.4f -> %s",
+        "correspondences%s -> %s",
         community1,
         community2,
         num_shared_images,
         static_cast<int>(pair_and_edges.second.size()),
-        similarity.num_correspondences,
-        similarity.num_inliers,
-        similarity.second_from_first.scale,
-        similarity.success ? "used" : "too little support, not used");
+        static_cast<int>(correspondences.Size()),
+        rejected_checks.c_str(),
+        similarity.success
+            ? StringPrintf("%d inliers, scale %.4f, co-visible pairs "
+                           "verified %d of %d across, %d of %d inside: used",
+                           similarity.num_inliers,
+                           similarity.second_from_first.scale,
+                           covisibility.num_verified_cross_pairs,
+                           covisibility.num_predicted_cross_pairs,
+                           covisibility.num_verified_internal_pairs,
+                           covisibility.num_predicted_internal_pairs)
+                  .c_str()
+        : num_rejected > 0 ? "no transform explains the matches, not used"
+                           : "too little support, not used");
     if (!similarity.success) {
       continue;
     }
@@ -267,7 +317,7 @@ std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
     relative.second_from_first = similarity.second_from_first;
     relative.points1 = similarity.inlier_points1;
     relative.points2 = similarity.inlier_points2;
-    relative.weight = similarity.num_inliers;
+    relative.num_inliers = similarity.num_inliers;
     similarities.push_back(std::move(relative));
     inlier_point3D_ids->push_back(similarity.inlier_point3D_ids);
   }
@@ -384,13 +434,14 @@ std::shared_ptr<Reconstruction> MergePart(
 void LogSummary(const CommunityMapperController::Summary& summary) {
   PrintHeading1("Community mapper summary");
   for (size_t c = 0; c < summary.community_sizes.size(); ++c) {
-    LOG(INFO) << StringPrintf("Community %d: %d images, %d registered%s",
-                              static_cast<int>(c),
-                              summary.community_sizes[c],
-                              summary.community_num_registered[c],
-                              summary.community_num_models[c] > 1
-                                  ? " (largest of several models)"
-                                  : "");
+    const CommunityModelReport& report = summary.community_reports[c];
+    LOG(INFO) << StringPrintf(
+        "Community %d: %d images, %d registered%s%s",
+        static_cast<int>(c),
+        summary.community_sizes[c],
+        report.num_registered,
+        report.num_models > 1 ? " (largest of several models)" : "",
+        summary.community_excluded[c] ? ", left the merge" : "");
   }
   LOG(INFO) << StringPrintf(
       "Community pairs: %d joined by view-graph edges, %d with a similarity, "
@@ -458,6 +509,7 @@ bool CommunityMapperController::Options::Check() const {
   CHECK_OPTION(community_ba_global_ratio == -1 ||
                community_ba_global_ratio > 1);
   CHECK_OPTION(pairwise_similarity.Check());
+  CHECK_OPTION(covisibility_check.Check());
   CHECK_OPTION(similarity_averaging.Check());
   CHECK_OPTION(refinement.Check());
   CHECK_OPTION(incremental_options.Check());
@@ -572,12 +624,30 @@ void CommunityMapperController::Run() {
   std::vector<std::vector<std::pair<point3D_t, point3D_t>>> inlier_point3D_ids;
   const CrossEdges cross_edges = GroupCrossEdges(view_graph, partition);
   const std::vector<RelativeSimilarity> similarities =
-      EstimatePairwiseSimilarities(
-          options_, cross_edges, models, &inlier_point3D_ids, &summary_);
-  const SimilarityAveragingResult averaging =
-      AverageSimilarities(summary_.community_num_registered,
-                          similarities,
-                          options_.similarity_averaging);
+      EstimatePairwiseSimilarities(options_,
+                                   view_graph,
+                                   cross_edges,
+                                   models,
+                                   &inlier_point3D_ids,
+                                   &summary_);
+  summary_.community_judgements =
+      JudgeCommunityModels(summary_.community_reports, options_.judgement);
+  std::vector<AveragedCommunity> averaged_communities(models.size());
+  for (size_t c = 0; c < models.size(); ++c) {
+    averaged_communities[c].num_images =
+        summary_.community_reports[c].num_registered;
+    averaged_communities[c].doubtful =
+        summary_.community_judgements[c].doubtful;
+    if (summary_.community_judgements[c].doubtful) {
+      LOG(WARNING) << StringPrintf(
+          "Community %d is in doubt (%s): it takes part with little weight.",
+          static_cast<int>(c),
+          summary_.community_judgements[c].reason.c_str());
+    }
+  }
+  const SimilarityAveragingResult averaging = AverageSimilarities(
+      averaged_communities, similarities, options_.similarity_averaging);
+  summary_.community_excluded = averaging.excluded;
   for (size_t e = 0; e < similarities.size(); ++e) {
     const auto& report = averaging.edges[e];
     summary_.num_kept_similarities += report.kept ? 1 : 0;
@@ -590,6 +660,17 @@ void CommunityMapperController::Run() {
         report.log_scale_residual,
         report.relative_translation_residual,
         report.kept ? "kept" : "dropped");
+  }
+  for (size_t c = 0; c < models.size(); ++c) {
+    if (averaging.excluded[c]) {
+      LOG(WARNING) << StringPrintf(
+          "Community %d leaves the merge: its similarities disagree with the "
+          "other communities' and its model is %s. Its images are offered to "
+          "the merged model.",
+          static_cast<int>(c),
+          summary_.community_judgements[c].doubtful ? "in doubt" : "small");
+      models[c].reset();
+    }
   }
   end_phase("Similarity averaging");
 
@@ -639,7 +720,10 @@ void CommunityMapperController::Run() {
     if (part_communities.empty()) {
       continue;
     }
-    if (part_communities.size() == 1) {
+    // A part of one community is taken as it is, unless images of
+    // communities without a model are offered to it.
+    if (part_communities.size() == 1 &&
+        unmodelled_images_of_part[part].empty()) {
       const int c = part_communities[0];
       std::shared_ptr<Reconstruction> model =
           RestrictToImages(communities.own_image_ids[c], models[c]);
@@ -650,13 +734,6 @@ void CommunityMapperController::Run() {
             "own images: no model for it.",
             c);
         continue;
-      }
-      if (unmodelled_images_of_part.count(part) > 0) {
-        LOG(WARNING) << StringPrintf(
-            "%d images of unreconstructed communities border community %d, "
-            "which is not merged with others: they stay unregistered.",
-            static_cast<int>(unmodelled_images_of_part[part].size()),
-            c);
       }
       merged_models.push_back(std::move(model));
       continue;

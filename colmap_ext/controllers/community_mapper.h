@@ -19,7 +19,9 @@
 
 #include "colmap_ext/graph/community_detection.h"
 #include "colmap_ext/graph/view_graph.h"
+#include "colmap_ext/sfm/community_judgement.h"
 #include "colmap_ext/sfm/community_merger.h"
+#include "colmap_ext/sfm/covisibility_check.h"
 #include "colmap_ext/sfm/pairwise_similarity.h"
 #include "colmap_ext/sfm/similarity_averaging.h"
 
@@ -106,6 +108,12 @@ class CommunityMapperController : public BaseController {
     // Pairwise similarity estimation between connected communities.
     PairwiseSimilarityOptions pairwise_similarity;
 
+    // The check that an alignment explains which images were matched.
+    CovisibilityCheckOptions covisibility_check;
+
+    // What makes a community's own model doubtful.
+    CommunityJudgementOptions judgement;
+
     // Global similarity averaging and edge rejection.
     SimilarityAveragingOptions similarity_averaging;
 
@@ -135,10 +143,13 @@ class CommunityMapperController : public BaseController {
     int num_view_graph_edges = 0;
     int num_view_graph_components = 0;
     double max_modularity = 0.0;
-    // Per community.
+    // Per community: its own images, what its mapper produced, the verdict
+    // on its model, and whether it left the merge (its images were then
+    // offered to the merged model).
     std::vector<int> community_sizes;
-    std::vector<int> community_num_registered;
-    std::vector<int> community_num_models;
+    std::vector<CommunityModelReport> community_reports;
+    std::vector<CommunityJudgement> community_judgements;
+    std::vector<bool> community_excluded;
     // Pairs of communities joined by view-graph edges, with a pairwise
     // similarity, and kept by the averaging.
     int num_community_pairs = 0;

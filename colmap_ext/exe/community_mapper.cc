@@ -426,6 +426,15 @@ int RunCommunityMapper(int argc, char** argv) {
   add("pairwise_min_num_inliers",
       &mapper_options.pairwise_similarity.min_num_inliers,
       "minimum inlier correspondences of a pairwise similarity");
+  add("pairwise_max_num_hypotheses",
+      &mapper_options.pairwise_similarity.max_num_hypotheses,
+      "similarities tried per community pair when the co-visibility check "
+      "rejects one (each next from the outliers of those before)");
+  add("covisibility_min_rate_ratio",
+      &mapper_options.covisibility_check.min_rate_ratio,
+      "reject a similarity under which the image pairs it makes co-visible "
+      "across the communities were verified less often than this fraction of "
+      "the rate inside them (0: no check)");
   add("max_rotation_residual_deg",
       &mapper_options.similarity_averaging.max_rotation_residual_deg,
       "drop a pairwise similarity whose rotation residual after averaging "
@@ -438,12 +447,24 @@ int RunCommunityMapper(int argc, char** argv) {
       &mapper_options.similarity_averaging.max_relative_translation_residual,
       "drop a pairwise similarity whose translation residual after averaging, "
       "relative to its points' spread, exceeds this");
+  add("min_registered_fraction",
+      &mapper_options.judgement.min_registered_fraction,
+      "a community whose model registered fewer of its images than this "
+      "fraction (of the communities' median fraction) is in doubt");
+  add("max_relative_reprojection_error",
+      &mapper_options.judgement.max_relative_reprojection_error,
+      "a community whose model's mean reprojection error exceeds this many "
+      "times the communities' median is in doubt");
   add("register_remaining_images",
       &mapper_options.refinement.register_remaining_images,
       "try to register, in the merged model, images no community registered");
   add("robust_first_adjustment",
       &mapper_options.refinement.robust_first_adjustment,
       "start the merged model's bundle adjustment with a robust loss");
+  add("retriangulate",
+      &mapper_options.refinement.retriangulate,
+      "after the merged model's first bundle adjustment, triangulate all its "
+      "points anew over the whole correspondence graph");
   add("ba_function_tolerance",
       &mapper_options.refinement.function_tolerance,
       "the merged model's bundle adjustments stop once an iteration lowers "

@@ -1,5 +1,7 @@
 #include "colmap_ext/graph/view_graph.h"
 
+#include "colmap_ext/util/union_find.h"
+
 #include "colmap/util/logging.h"
 
 #include <algorithm>
@@ -29,23 +31,14 @@ WeightedGraph WeightedGraph::InducedSubgraph(
 }
 
 std::vector<std::vector<int>> WeightedGraph::ConnectedComponents() const {
-  // Union-find with path halving.
-  std::vector<int> parent(num_vertices);
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&parent](int vertex) {
-    while (parent[vertex] != vertex) {
-      parent[vertex] = parent[parent[vertex]];
-      vertex = parent[vertex];
-    }
-    return vertex;
-  };
+  UnionFind sets(num_vertices);
   for (const Edge& edge : edges) {
-    parent[find(edge.vertex1)] = find(edge.vertex2);
+    sets.Union(edge.vertex1, edge.vertex2);
   }
 
   std::map<int, std::vector<int>> components_by_root;
   for (int vertex = 0; vertex < num_vertices; ++vertex) {
-    components_by_root[find(vertex)].push_back(vertex);
+    components_by_root[sets.Find(vertex)].push_back(vertex);
   }
   std::vector<std::vector<int>> components;
   components.reserve(components_by_root.size());

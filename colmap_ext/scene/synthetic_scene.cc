@@ -308,8 +308,8 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
             ? database->WriteCamera(camera)
             : static_cast<camera_t>(reconstruction.NumCameras() + 1);
     if (options.focal_length_noise > 0) {
-      const double factor = std::max(
-          0.5, 1.0 + random.Gaussian(options.focal_length_noise));
+      const double factor =
+          std::max(0.5, 1.0 + random.Gaussian(options.focal_length_noise));
       camera.SetFocalLength(factor * options.focal_length);
     }
     reconstruction.AddCamera(camera);
@@ -600,8 +600,8 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
       }
     }
     random.Shuffle(&candidates);
-    candidates.resize(std::min<size_t>(
-        candidates.size(), options.num_repeated_structure_pairs));
+    candidates.resize(std::min<size_t>(candidates.size(),
+                                       options.num_repeated_structure_pairs));
     std::sort(candidates.begin(), candidates.end());
     for (const auto& candidate : candidates) {
       const size_t idx1 = candidate.first;

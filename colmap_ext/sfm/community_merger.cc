@@ -306,6 +306,21 @@ MergedModelRefinementSummary RefineMergedModel(
                        &mapper.ObservationManager(),
                        reconstruction.get());
     reconstruction->Normalize();
+    if (i == 0 && options.retriangulate) {
+      // The cameras are now in place: the communities' points, split where
+      // their tracks crossed a border, give way to tracks triangulated
+      // anew over the whole correspondence graph.
+      timer.Restart();
+      for (const point3D_t point3D_id : reconstruction->Point3DIds()) {
+        mapper.ObservationManager().DeletePoint3D(point3D_id);
+      }
+      for (const image_t image_id : reconstruction->RegImageIds()) {
+        mapper.TriangulateImage(triangulation, image_id);
+      }
+      LOG(INFO) << StringPrintf("Re-triangulated %d points (%.1fs)",
+                                static_cast<int>(reconstruction->NumPoints3D()),
+                                timer.ElapsedSeconds());
+    }
     const size_t num_changed = mapper.CompleteAndMergeTracks(triangulation) +
                                mapper.FilterPoints(incremental);
     const double changed =

@@ -81,6 +81,12 @@ struct MergedModelRefinementOptions {
   // error 9% larger) but made the error 73% larger on one of 300 images.
   bool robust_first_adjustment = true;
 
+  // After the first bundle adjustment, delete all points and triangulate
+  // every registered image anew over the full correspondence graph, as the
+  // incremental mapper's tracks are built (the communities' tracks end at
+  // their borders, and their merge leaves some points split in two).
+  bool retriangulate = true;
+
   // Use Ceres' sparse direct Schur solver at any size (COLMAP switches to
   // the iterative one above 1000 images).
   bool sparse_solver = true;

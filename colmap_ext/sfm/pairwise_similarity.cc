@@ -77,6 +77,7 @@ bool PairwiseSimilarityOptions::Check() const {
   CHECK_OPTION_GE(min_inlier_ratio, 0);
   CHECK_OPTION_LE(min_inlier_ratio, 1);
   CHECK_OPTION_GE(min_num_inliers, 3);
+  CHECK_OPTION_GE(max_num_hypotheses, 1);
   return true;
 }
 
@@ -121,6 +122,45 @@ PairwiseSimilarity EstimatePairwiseSimilarity(
   }
   result.success = result.num_inliers >= options.min_num_inliers;
   return result;
+}
+
+PairwiseSimilarity EstimatePairwiseSimilarity(
+    const PointCorrespondences& correspondences,
+    const PairwiseSimilarityOptions& options,
+    const std::function<bool(const PairwiseSimilarity&)>& accept,
+    int* num_rejected) {
+  THROW_CHECK_NOTNULL(num_rejected);
+  *num_rejected = 0;
+  PointCorrespondences remaining = correspondences;
+  PairwiseSimilarity similarity;
+  for (int hypothesis = 0; hypothesis < options.max_num_hypotheses;
+       ++hypothesis) {
+    similarity = EstimatePairwiseSimilarity(remaining, options);
+    if (!similarity.success) {
+      break;
+    }
+    if (accept(similarity)) {
+      return similarity;
+    }
+    ++*num_rejected;
+    // Go on with the outliers of the rejected transform.
+    const std::set<std::pair<point3D_t, point3D_t>> inliers(
+        similarity.inlier_point3D_ids.begin(),
+        similarity.inlier_point3D_ids.end());
+    PointCorrespondences outliers;
+    for (size_t i = 0; i < remaining.Size(); ++i) {
+      if (inliers.count(
+              {remaining.point3D_ids1[i], remaining.point3D_ids2[i]}) == 0) {
+        outliers.point3D_ids1.push_back(remaining.point3D_ids1[i]);
+        outliers.point3D_ids2.push_back(remaining.point3D_ids2[i]);
+        outliers.points1.push_back(remaining.points1[i]);
+        outliers.points2.push_back(remaining.points2[i]);
+      }
+    }
+    remaining = std::move(outliers);
+  }
+  similarity.success = false;
+  return similarity;
 }
 
 }  // namespace colmap

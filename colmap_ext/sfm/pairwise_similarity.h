@@ -27,6 +27,7 @@
 #include "colmap/util/eigen_alignment.h"
 #include "colmap/util/types.h"
 
+#include <functional>
 #include <vector>
 
 namespace colmap {
@@ -67,6 +68,12 @@ struct PairwiseSimilarityOptions {
   // Minimum number of inlier correspondences for a usable transform.
   int min_num_inliers = 20;
 
+  // Transforms tried when a check rejects one: each next one is estimated
+  // from the correspondences that the rejected ones left as outliers (where
+  // two communities are linked by true matches and by matches of repeated
+  // structure, the latter can have the larger support).
+  int max_num_hypotheses = 3;
+
   bool Check() const;
 };
 
@@ -85,5 +92,14 @@ struct PairwiseSimilarity {
 PairwiseSimilarity EstimatePairwiseSimilarity(
     const PointCorrespondences& correspondences,
     const PairwiseSimilarityOptions& options);
+
+// The first of up to `options.max_num_hypotheses` transforms that `accept`
+// accepts (see above); `num_rejected` receives how many it rejected. The
+// result's `success` is false if none was accepted.
+PairwiseSimilarity EstimatePairwiseSimilarity(
+    const PointCorrespondences& correspondences,
+    const PairwiseSimilarityOptions& options,
+    const std::function<bool(const PairwiseSimilarity&)>& accept,
+    int* num_rejected);
 
 }  // namespace colmap

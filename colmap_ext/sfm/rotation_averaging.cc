@@ -1,5 +1,7 @@
 #include "colmap_ext/sfm/rotation_averaging.h"
 
+#include "colmap_ext/util/union_find.h"
+
 #include "colmap/math/math.h"
 #include "colmap/optim/least_absolute_deviations.h"
 #include "colmap/util/logging.h"
@@ -46,22 +48,11 @@ bool InitializeFromSpanningTree(
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
     return relative_rotations[a].weight > relative_rotations[b].weight;
   });
-  std::vector<int> parent(num_nodes);
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&parent](int node) {
-    while (parent[node] != node) {
-      parent[node] = parent[parent[node]];
-      node = parent[node];
-    }
-    return node;
-  };
+  UnionFind sets(num_nodes);
   std::vector<std::vector<size_t>> tree_edges(num_nodes);
   for (const size_t edge_idx : order) {
     const RelativeRotation& edge = relative_rotations[edge_idx];
-    const int root1 = find(edge.node1);
-    const int root2 = find(edge.node2);
-    if (root1 != root2) {
-      parent[root1] = root2;
+    if (sets.Union(edge.node1, edge.node2)) {
       tree_edges[edge.node1].push_back(edge_idx);
       tree_edges[edge.node2].push_back(edge_idx);
     }
@@ -172,6 +163,7 @@ bool AverageRotations(int num_nodes,
     THROW_CHECK_GE(edge.node2, 0);
     THROW_CHECK_LT(edge.node2, num_nodes);
     THROW_CHECK_NE(edge.node1, edge.node2);
+    THROW_CHECK_GT(edge.weight, 0);
   }
 
   if (!InitializeFromSpanningTree(
@@ -184,6 +176,16 @@ bool AverageRotations(int num_nodes,
 
   Eigen::SparseMatrix<double> A;
   Eigen::VectorXd b;
+  // Per row: the confidence of its edge, relative to the largest.
+  double max_weight = 0;
+  for (const RelativeRotation& edge : relative_rotations) {
+    max_weight = std::max(max_weight, edge.weight);
+  }
+  Eigen::VectorXd confidence(3 * relative_rotations.size());
+  for (size_t e = 0; e < relative_rotations.size(); ++e) {
+    confidence.segment<3>(3 * e).setConstant(relative_rotations[e].weight /
+                                             max_weight);
+  }
 
   // L1RA.
   LeastAbsoluteDeviationsOptions l1_options;
@@ -193,6 +195,8 @@ bool AverageRotations(int num_nodes,
   for (int iter = 0; iter < options.max_num_l1_iterations; ++iter) {
     Linearize(
         num_nodes, relative_rotations, reference_node, *rotations, &A, &b);
+    A = confidence.asDiagonal() * A;
+    b = confidence.asDiagonal() * b;
     Eigen::VectorXd x = Eigen::VectorXd::Zero(A.cols());
     if (!SolveLeastAbsoluteDeviations(l1_options, A, b, &x)) {
       return false;
@@ -213,7 +217,7 @@ bool AverageRotations(int num_nodes,
     for (size_t e = 0; e < relative_rotations.size(); ++e) {
       const double residual_sq = b.segment<3>(3 * e).squaredNorm();
       const double denominator = residual_sq + sigma_sq;
-      weights.segment<3>(3 * e).setConstant(sigma_sq /
+      weights.segment<3>(3 * e).setConstant(confidence(3 * e) * sigma_sq /
                                             (denominator * denominator));
     }
     const Eigen::SparseMatrix<double> At_W =

@@ -6,14 +6,15 @@
 // minimise the robust sum over edges of d(R_ij, R_j R_i^T).
 //
 //   1. Initialise R_i by chaining the relative rotations along a maximum
-//      spanning tree (edge weights: confidence, e.g. inlier counts).
+//      spanning tree (edge weights c_ij: confidence).
 //   2. L1RA: with dR_ij = R_j^T R_ij R_i and w_ij = log(dR_ij) (angle-axis),
-//      solve  min_x sum_ij |x_j - x_i - w_ij|_1  (x_ref = 0; per axis, by
-//      COLMAP's ADMM least absolute deviations solver) and update
+//      solve  min_x sum_ij c_ij |x_j - x_i - w_ij|_1  (x_ref = 0; per axis,
+//      by COLMAP's ADMM least absolute deviations solver) and update
 //      R_k <- R_k exp(x_k), until the update is negligible.
 //   3. IRLS: the same linearisation, solved in weighted least squares with
-//      Geman-McClure weights  phi(r) = sigma^2 / (r^2 + sigma^2)^2  on the
-//      residual angle r of each edge, refining what L1 found.
+//      weights c_ij phi(r), phi(r) = sigma^2 / (r^2 + sigma^2)^2 the
+//      Geman-McClure weight of the residual angle r of each edge, refining
+//      what L1 found.
 
 #pragma once
 
@@ -30,7 +31,10 @@ struct RelativeRotation {
   int node2 = -1;
   // node2_from_node1: R_node2 ~ rotation * R_node1.
   Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
-  // Confidence for the spanning tree (larger is better).
+  // Confidence (larger is better): the spanning tree follows the most
+  // confident edges, and every edge's residual counts this many times in
+  // L1RA and IRLS, so that on a cycle that does not close the least
+  // confident edges take up the disagreement.
   double weight = 1.0;
 };
 

@@ -1,5 +1,7 @@
 #include "colmap_ext/sfm/similarity_averaging.h"
 
+#include "colmap_ext/util/union_find.h"
+
 #include "colmap/math/math.h"
 #include "colmap/optim/least_absolute_deviations.h"
 #include "colmap/util/logging.h"
@@ -15,11 +17,13 @@
 namespace colmap {
 namespace {
 
-// Solves x_i - x_j = b_e (dim rows per edge e = (i, j)) over the nodes of
-// one connected part, in L1 or least squares, with x_reference = 0. `x` has
-// dim entries per node of the part, in the order of `nodes`.
+// Solves x_i - x_j = b_e (dim rows per edge e = (i, j), weighted by
+// edge_weights[e]) over the nodes of one connected part, in L1 or least
+// squares, with x_reference = 0. `x` has dim entries per node of the part,
+// in the order of `nodes`.
 bool SolveDifferenceSystem(const std::vector<int>& nodes,
                            const std::vector<std::pair<int, int>>& edges,
+                           const std::vector<double>& edge_weights,
                            const int dim,
                            const int reference,
                            const Eigen::VectorXd& b,
@@ -42,16 +46,21 @@ bool SolveDifferenceSystem(const std::vector<int>& nodes,
     for (int d = 0; d < dim; ++d) {
       if (edges[e].first != reference) {
         triplets.emplace_back(
-            dim * e + d, dim * column.at(edges[e].first) + d, 1.0);
+            dim * e + d, dim * column.at(edges[e].first) + d, edge_weights[e]);
       }
       if (edges[e].second != reference) {
-        triplets.emplace_back(
-            dim * e + d, dim * column.at(edges[e].second) + d, -1.0);
+        triplets.emplace_back(dim * e + d,
+                              dim * column.at(edges[e].second) + d,
+                              -edge_weights[e]);
       }
     }
   }
   Eigen::SparseMatrix<double> A(dim * edges.size(), dim * column.size());
   A.setFromTriplets(triplets.begin(), triplets.end());
+  Eigen::VectorXd weighted_b = b;
+  for (size_t e = 0; e < edges.size(); ++e) {
+    weighted_b.segment(dim * e, dim) *= edge_weights[e];
+  }
 
   Eigen::VectorXd solution;
   if (least_squares) {
@@ -60,14 +69,14 @@ bool SolveDifferenceSystem(const std::vector<int>& nodes,
     if (solver.info() != Eigen::Success) {
       return false;
     }
-    solution = solver.solve(A.transpose() * b);
+    solution = solver.solve(A.transpose() * weighted_b);
   } else {
     LeastAbsoluteDeviationsOptions l1_options;
     l1_options.max_num_iterations = 20000;
     l1_options.absolute_tolerance = 1e-12;
     l1_options.relative_tolerance = 1e-10;
     solution = Eigen::VectorXd::Zero(A.cols());
-    if (!SolveLeastAbsoluteDeviations(l1_options, A, b, &solution)) {
+    if (!SolveLeastAbsoluteDeviations(l1_options, A, weighted_b, &solution)) {
       return false;
     }
   }
@@ -142,6 +151,7 @@ void TranslationMeasurement(const RelativeSimilarity& edge,
 // Averages the similarities of one connected part in place.
 bool AveragePart(const std::vector<int>& nodes,
                  const std::vector<const RelativeSimilarity*>& edges,
+                 const std::vector<double>& edge_weights,
                  const int reference,
                  const SimilarityAveragingOptions& options,
                  std::vector<Sim3d>* world_from_community) {
@@ -163,6 +173,7 @@ bool AveragePart(const std::vector<int>& nodes,
     }
     if (!SolveDifferenceSystem(nodes,
                                edge_nodes,
+                               edge_weights,
                                /*dim=*/1,
                                reference,
                                b,
@@ -177,12 +188,12 @@ bool AveragePart(const std::vector<int>& nodes,
   std::vector<Eigen::Quaterniond> community_from_world;
   {
     std::vector<RelativeRotation> relative_rotations;
-    for (const RelativeSimilarity* edge : edges) {
+    for (size_t e = 0; e < edges.size(); ++e) {
       RelativeRotation relative_rotation;
-      relative_rotation.node1 = local.at(edge->community1);
-      relative_rotation.node2 = local.at(edge->community2);
-      relative_rotation.rotation = edge->second_from_first.rotation;
-      relative_rotation.weight = edge->weight;
+      relative_rotation.node1 = local.at(edges[e]->community1);
+      relative_rotation.node2 = local.at(edges[e]->community2);
+      relative_rotation.rotation = edges[e]->second_from_first.rotation;
+      relative_rotation.weight = edge_weights[e];
       relative_rotations.push_back(relative_rotation);
     }
     if (!AverageRotations(static_cast<int>(nodes.size()),
@@ -215,6 +226,7 @@ bool AveragePart(const std::vector<int>& nodes,
   Eigen::VectorXd translations;
   if (!SolveDifferenceSystem(nodes,
                              edge_nodes,
+                             edge_weights,
                              /*dim=*/3,
                              reference,
                              b,
@@ -263,6 +275,10 @@ bool SimilarityAveragingOptions::Check() const {
   CHECK_OPTION_GT(max_log_scale_residual, 0);
   CHECK_OPTION_GT(max_relative_translation_residual, 0);
   CHECK_OPTION_GE(max_num_rejection_rounds, 0);
+  CHECK_OPTION_GT(doubtful_weight, 0);
+  CHECK_OPTION_LE(doubtful_weight, 1);
+  CHECK_OPTION_GT(full_support_num_inliers, 0);
+  CHECK_OPTION_GE(min_relative_size, 0);
   return true;
 }
 
@@ -274,11 +290,11 @@ int SimilarityAveragingResult::NumParts() const {
 }
 
 SimilarityAveragingResult AverageSimilarities(
-    const std::vector<int>& community_sizes,
+    const std::vector<AveragedCommunity>& communities,
     const std::vector<RelativeSimilarity>& relative_similarities,
     const SimilarityAveragingOptions& options) {
   THROW_CHECK(options.Check());
-  const int num_communities = static_cast<int>(community_sizes.size());
+  const int num_communities = static_cast<int>(communities.size());
   for (const RelativeSimilarity& edge : relative_similarities) {
     THROW_CHECK_GE(edge.community1, 0);
     THROW_CHECK_LT(edge.community1, num_communities);
@@ -289,36 +305,61 @@ SimilarityAveragingResult AverageSimilarities(
     THROW_CHECK_EQ(edge.points1.size(), edge.points2.size());
   }
 
+  // Confidence of communities and edges.
+  std::vector<double> community_weights(num_communities);
+  std::vector<int> sizes;
+  for (int c = 0; c < num_communities; ++c) {
+    community_weights[c] =
+        std::max(1, communities[c].num_images) *
+        (communities[c].doubtful ? options.doubtful_weight : 1.0);
+    sizes.push_back(communities[c].num_images);
+  }
+  const double median_size =
+      sizes.empty() ? 0.0 : static_cast<double>(Median(sizes));
+  // Edge weights lie in [1 - kWeightRange, 1]: their order decides where a
+  // cycle's disagreement goes, while around every community a majority of
+  // right edges still outweighs a minority of wrong ones, as L1 needs.
+  constexpr double kWeightRange = 0.4;
+  std::vector<double> edge_weights(relative_similarities.size());
+  double max_weight = 0;
+  for (size_t e = 0; e < relative_similarities.size(); ++e) {
+    const RelativeSimilarity& edge = relative_similarities[e];
+    edge_weights[e] =
+        std::min(community_weights[edge.community1],
+                 community_weights[edge.community2]) *
+        std::min(1.0, edge.num_inliers / options.full_support_num_inliers);
+    max_weight = std::max(max_weight, edge_weights[e]);
+  }
+  for (double& weight : edge_weights) {
+    weight = 1 - kWeightRange +
+             kWeightRange * (max_weight > 0 ? weight / max_weight : 1);
+  }
+
   SimilarityAveragingResult result;
   result.world_from_community.assign(num_communities, Sim3d());
   result.edges.resize(relative_similarities.size());
+  result.excluded.assign(num_communities, false);
   for (auto& edge_report : result.edges) {
     edge_report.kept = true;
   }
 
   std::vector<std::vector<int>> parts;
   for (int round = 0;; ++round) {
-    // Connected parts over the kept edges (union-find).
-    std::vector<int> parent(num_communities);
-    std::iota(parent.begin(), parent.end(), 0);
-    auto find = [&parent](int node) {
-      while (parent[node] != node) {
-        parent[node] = parent[parent[node]];
-        node = parent[node];
-      }
-      return node;
-    };
+    // Connected parts over the kept edges.
+    std::vector<std::pair<int, int>> kept_edges;
     for (size_t e = 0; e < relative_similarities.size(); ++e) {
       if (result.edges[e].kept) {
-        parent[find(relative_similarities[e].community1)] =
-            find(relative_similarities[e].community2);
+        kept_edges.emplace_back(relative_similarities[e].community1,
+                                relative_similarities[e].community2);
       }
     }
-    // Parts in the order of their smallest community.
-    std::map<int, size_t> part_of_root;
+    const std::vector<int> component =
+        ConnectedComponentLabels(num_communities, kept_edges);
     parts.clear();
+    std::map<int, size_t> part_of_label;  // Parts by smallest community.
     for (int node = 0; node < num_communities; ++node) {
-      const auto it = part_of_root.emplace(find(node), parts.size()).first;
+      const auto it =
+          part_of_label.emplace(component[node], parts.size()).first;
       if (it->second == parts.size()) {
         parts.emplace_back();
       }
@@ -330,21 +371,28 @@ SimilarityAveragingResult AverageSimilarities(
     for (std::vector<int>& nodes : parts) {
       int reference = nodes.front();
       for (const int node : nodes) {
-        if (community_sizes[node] > community_sizes[reference]) {
+        if (communities[node].num_images > communities[reference].num_images) {
           reference = node;
         }
       }
       std::vector<const RelativeSimilarity*> edges;
+      std::vector<double> weights;
       std::vector<size_t> edge_indices;
       for (size_t e = 0; e < relative_similarities.size(); ++e) {
         if (result.edges[e].kept &&
-            find(relative_similarities[e].community1) == find(reference)) {
+            component[relative_similarities[e].community1] ==
+                component[reference]) {
           edges.push_back(&relative_similarities[e]);
+          weights.push_back(edge_weights[e]);
           edge_indices.push_back(e);
         }
       }
-      if (!AveragePart(
-              nodes, edges, reference, options, &result.world_from_community)) {
+      if (!AveragePart(nodes,
+                       edges,
+                       weights,
+                       reference,
+                       options,
+                       &result.world_from_community)) {
         LOG(WARNING) << "Similarity averaging failed for a part of "
                      << nodes.size() << " communities; they are kept apart.";
         for (const size_t e : edge_indices) {
@@ -357,7 +405,9 @@ SimilarityAveragingResult AverageSimilarities(
       }
     }
 
-    // Residuals of the kept edges; reject the large ones.
+    // Residuals of the kept edges; reject the large ones, and with each the
+    // weaker community if it cannot be trusted on its own.
+    std::vector<int> to_exclude;
     bool rejected = false;
     for (size_t e = 0; e < relative_similarities.size(); ++e) {
       if (!result.edges[e].kept) {
@@ -383,6 +433,40 @@ SimilarityAveragingResult AverageSimilarities(
           (round < options.max_num_rejection_rounds || !finite)) {
         result.edges[e].kept = false;
         rejected = true;
+        const int community1 = relative_similarities[e].community1;
+        const int community2 = relative_similarities[e].community2;
+        const int weaker =
+            community_weights[community1] <= community_weights[community2]
+                ? community1
+                : community2;
+        if (communities[weaker].doubtful ||
+            communities[weaker].num_images <
+                options.min_relative_size * median_size) {
+          to_exclude.push_back(weaker);
+        }
+      }
+    }
+    // A small or doubtful community that is left with fewer than two kept
+    // edges has nothing that confirms its own model against the rejected
+    // edge: it leaves. With two or more, the others agree on where it is and
+    // the rejected similarity was the odd one out.
+    std::vector<int> num_kept_edges(num_communities, 0);
+    for (size_t e = 0; e < relative_similarities.size(); ++e) {
+      if (result.edges[e].kept) {
+        ++num_kept_edges[relative_similarities[e].community1];
+        ++num_kept_edges[relative_similarities[e].community2];
+      }
+    }
+    for (const int community : to_exclude) {
+      if (num_kept_edges[community] >= 2) {
+        continue;
+      }
+      result.excluded[community] = true;
+      for (size_t e = 0; e < relative_similarities.size(); ++e) {
+        if (relative_similarities[e].community1 == community ||
+            relative_similarities[e].community2 == community) {
+          result.edges[e].kept = false;
+        }
       }
     }
     if (!rejected && !failed) {
@@ -396,8 +480,12 @@ SimilarityAveragingResult AverageSimilarities(
                    [&](const std::vector<int>& a, const std::vector<int>& b) {
                      int size_a = 0;
                      int size_b = 0;
-                     for (const int node : a) size_a += community_sizes[node];
-                     for (const int node : b) size_b += community_sizes[node];
+                     for (const int node : a) {
+                       size_a += communities[node].num_images;
+                     }
+                     for (const int node : b) {
+                       size_b += communities[node].num_images;
+                     }
                      return size_a > size_b;
                    });
   result.part_of_community.assign(num_communities, -1);

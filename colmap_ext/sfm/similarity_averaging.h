@@ -15,9 +15,25 @@
 //      translation is re-estimated from its correspondences,
 //      T_ij = median(s_j R_j X_j - s_i R_i X_i), then
 //      min sum_ij |T_i - T_j - T_ij|_1  (per coordinate).
+// Every edge counts with a confidence: the weight of its weaker community
+// (its registered images, a tenth of that if its own model is in doubt),
+// scaled down if the edge has few inliers, mapped to [0.6, 1] so that a
+// majority of right edges around a community still outweighs a minority of
+// wrong ones. On a cycle that does not close, weighted L1 averaging puts
+// the whole disagreement on the least confident edge instead of spreading
+// it over all (every spread has the same unweighted L1 cost), so the fault
+// is found where it most likely is: in a small or doubtful community, or a
+// weakly supported similarity.
+//
 // Afterwards, edges whose residuals stay large (rotation, scale ratio, or
 // translation relative to the spread of the edge's correspondences) are
-// reported and left out, and the averaging is repeated; if the kept edges no
+// reported and left out, and the averaging is repeated. The weaker
+// community of a rejected edge leaves the merge altogether if its model is
+// in doubt or it is small and fewer than two kept edges confirm it (its
+// images can still be registered into the merged model later): a community
+// that drifts or broke inside itself cannot be aligned to all its
+// neighbours by one similarity, and keeping it by its last edge would bend
+// the merged model. If the kept edges no
 // longer connect all communities, every connected part gets its own frame,
 // since a wrong merge is worse than two models.
 
@@ -41,8 +57,17 @@ struct RelativeSimilarity {
   // used for the translation.
   std::vector<Eigen::Vector3d> points1;
   std::vector<Eigen::Vector3d> points2;
-  // Confidence (e.g. number of inliers), for the rotation spanning tree.
-  double weight = 1.0;
+  // Support (number of inlier correspondences).
+  double num_inliers = 0;
+};
+
+// A community as the averaging sees it.
+struct AveragedCommunity {
+  // Registered images of its model. The largest community of each part is
+  // the part's reference.
+  int num_images = 0;
+  // Whether its own model is in doubt (see community_judgement.h).
+  bool doubtful = false;
 };
 
 struct SimilarityAveragingOptions {
@@ -63,6 +88,19 @@ struct SimilarityAveragingOptions {
   // Rounds of rejection and re-averaging (0: keep every edge).
   int max_num_rejection_rounds = 5;
 
+  // The weight of a community whose model is in doubt, as a fraction of its
+  // registered images.
+  double doubtful_weight = 0.1;
+
+  // An edge with fewer inliers than this counts with its weaker
+  // community's weight times num_inliers / full_support_num_inliers.
+  double full_support_num_inliers = 100;
+
+  // The weaker community of a rejected edge leaves the merge if its model is
+  // in doubt or it has fewer registered images than this fraction of the
+  // median community's.
+  double min_relative_size = 0.5;
+
   bool Check() const;
 };
 
@@ -82,15 +120,15 @@ struct SimilarityAveragingResult {
   // of each part is its reference (identity).
   std::vector<Sim3d> world_from_community;
   std::vector<EdgeReport> edges;
+  // Communities that left the merge (each is a part of its own).
+  std::vector<bool> excluded;
 
   int NumParts() const;
 };
 
-// Averages the relative similarities of communities 0..num_communities-1,
-// community_sizes giving the size of each (the largest of a part is its
-// reference).
+// Averages the relative similarities of communities 0..N-1.
 SimilarityAveragingResult AverageSimilarities(
-    const std::vector<int>& community_sizes,
+    const std::vector<AveragedCommunity>& communities,
     const std::vector<RelativeSimilarity>& relative_similarities,
     const SimilarityAveragingOptions& options);
 

@@ -32,6 +32,14 @@ struct Problem {
   std::vector<RelativeSimilarity> edges;
   std::vector<bool> is_outlier;
   std::vector<int> sizes;
+
+  std::vector<AveragedCommunity> Communities() const {
+    std::vector<AveragedCommunity> communities(sizes.size());
+    for (size_t c = 0; c < sizes.size(); ++c) {
+      communities[c].num_images = sizes[c];
+    }
+    return communities;
+  }
 };
 
 struct Noise {
@@ -106,7 +114,7 @@ Problem MakeProblem(const int num_communities,
     RelativeSimilarity edge;
     edge.community1 = pair.first;
     edge.community2 = pair.second;
-    edge.weight = 40;
+    edge.num_inliers = 40;
     const bool outlier = is_outlier[e];
     const Eigen::Vector3d center =
         0.5 * (world_from_1.translation + world_from_2.translation);
@@ -186,7 +194,7 @@ TEST(AverageSimilarities, NoiselessInputIsRecoveredExactly) {
   for (const int num_communities : {10, 20, 30}) {
     const Problem problem = MakeProblem(num_communities, 5, Noise(), 0, 10);
     const SimilarityAveragingResult result = AverageSimilarities(
-        problem.sizes, problem.edges, SimilarityAveragingOptions());
+        problem.Communities(), problem.edges, SimilarityAveragingOptions());
     EXPECT_EQ(result.NumParts(), 1);
     const Errors errors = MaxErrors(result, problem);
     EXPECT_LT(errors.rotation_deg, 1e-6) << num_communities;
@@ -206,7 +214,7 @@ TEST(AverageSimilarities, NoisyInputStaysWithinBound) {
   noise.point = 0.1;  // 1% of the points' spread
   const Problem problem = MakeProblem(20, 10, noise, 0, 11);
   const SimilarityAveragingResult result = AverageSimilarities(
-      problem.sizes, problem.edges, SimilarityAveragingOptions());
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
   EXPECT_EQ(result.NumParts(), 1);
   const Errors errors = MaxErrors(result, problem);
   // Bounds: three times the per-edge noise (errors accumulate over a few
@@ -235,7 +243,7 @@ TEST(AverageSimilarities, L1RecoversTruthWithWrongEdgesLeastSquaresDoesNot) {
 
   // Without rejection, so that the solvers alone are compared.
   const Errors l1 = MaxErrors(
-      AverageSimilarities(problem.sizes, problem.edges, NoRejection()),
+      AverageSimilarities(problem.Communities(), problem.edges, NoRejection()),
       problem);
   // Within a few times the right edges' noise (0.2 deg, 0.005 in log
   // scale), as without wrong edges.
@@ -248,7 +256,7 @@ TEST(AverageSimilarities, L1RecoversTruthWithWrongEdgesLeastSquaresDoesNot) {
   least_squares.rotation.max_num_l1_iterations = 0;
   least_squares.rotation.irls_sigma_deg = 1e9;  // Constant weights.
   const Errors l2 = MaxErrors(
-      AverageSimilarities(problem.sizes, problem.edges, least_squares),
+      AverageSimilarities(problem.Communities(), problem.edges, least_squares),
       problem);
   EXPECT_GT(l2.rotation_deg, 10.0);
   EXPECT_GT(l2.log_scale, 0.1);
@@ -262,7 +270,7 @@ TEST(AverageSimilarities, WrongEdgesAreReportedAndDropped) {
   noise.point = 0.05;
   const Problem problem = MakeProblem(25, 25, noise, 0.2, 13);
   const SimilarityAveragingResult result = AverageSimilarities(
-      problem.sizes, problem.edges, SimilarityAveragingOptions());
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
   EXPECT_EQ(result.NumParts(), 1);
   int num_dropped_inliers = 0;
   for (size_t e = 0; e < problem.edges.size(); ++e) {
@@ -291,8 +299,8 @@ TEST(AverageSimilarities, UnconnectedCommunitiesFormSeparateParts) {
     }
   }
   problem.sizes = {10, 10, 10, 50, 5};
-  const SimilarityAveragingResult result =
-      AverageSimilarities(problem.sizes, edges, SimilarityAveragingOptions());
+  const SimilarityAveragingResult result = AverageSimilarities(
+      problem.Communities(), edges, SimilarityAveragingOptions());
   ASSERT_EQ(result.NumParts(), 2);
   // Parts by total size: {3, 4} has 55 images, {0, 1, 2} has 30.
   EXPECT_EQ(result.part_of_community, (std::vector<int>{1, 1, 1, 0, 0}));
@@ -308,12 +316,127 @@ TEST(AverageSimilarities, EdgesWithoutPointsUseTheirTranslation) {
     edge.points1.clear();
     edge.points2.clear();
   }
-  const Errors errors =
-      MaxErrors(AverageSimilarities(
-                    problem.sizes, problem.edges, SimilarityAveragingOptions()),
-                problem);
+  const Errors errors = MaxErrors(
+      AverageSimilarities(
+          problem.Communities(), problem.edges, SimilarityAveragingOptions()),
+      problem);
   EXPECT_LT(errors.rotation_deg, 1e-6);
   EXPECT_LT(errors.position, 1e-5);
+}
+
+// A single cycle of five communities (no chords): L1 alone cannot tell
+// which edge is wrong when the cycle does not close.
+Problem MakeCycle(const std::vector<int>& sizes, const unsigned seed) {
+  Problem ring =
+      MakeProblem(static_cast<int>(sizes.size()), 0, Noise(), 0, seed);
+  Problem cycle = ring;
+  cycle.edges.clear();
+  cycle.is_outlier.clear();
+  for (size_t e = 0; e < ring.edges.size(); ++e) {
+    const int step = (ring.edges[e].community2 - ring.edges[e].community1 +
+                      static_cast<int>(sizes.size())) %
+                     static_cast<int>(sizes.size());
+    if (step == 1) {
+      cycle.edges.push_back(ring.edges[e]);
+      cycle.is_outlier.push_back(false);
+    }
+  }
+  cycle.sizes = sizes;
+  return cycle;
+}
+
+// Bends the edge's similarity (as a community that broke inside itself
+// bends the transform seen from its far side): 25 degrees and 60% in scale,
+// about what a broken walkway community did to a generated courtyard loop
+// (the pairwise similarities around it multiplied to a rotation of 52
+// degrees and a scale of 2.1).
+void Bend(RelativeSimilarity* edge) {
+  const Sim3d bend(1.6,
+                   Eigen::Quaterniond(Eigen::AngleAxisd(
+                       DegToRad(25.0), Eigen::Vector3d::UnitY())),
+                   Eigen::Vector3d::Zero());
+  edge->second_from_first = bend * edge->second_from_first;
+  for (Eigen::Vector3d& point : edge->points2) {
+    point = bend * point;
+  }
+}
+
+int FindEdge(const Problem& problem,
+             const int community1,
+             const int community2) {
+  for (size_t e = 0; e < problem.edges.size(); ++e) {
+    if (std::minmax(problem.edges[e].community1, problem.edges[e].community2) ==
+        std::minmax(community1, community2)) {
+      return static_cast<int>(e);
+    }
+  }
+  return -1;
+}
+
+TEST(AverageSimilarities, SmallCommunityThatBreaksACycleLeavesTheMerge) {
+  // Community 3 is small; one of its edges disagrees with the rest of the
+  // cycle. Without weights every edge of the cycle would share the
+  // disagreement and be rejected: five parts.
+  Problem problem = MakeCycle({150, 120, 110, 22, 100}, 21);
+  const int bent = FindEdge(problem, 3, 4);
+  ASSERT_GE(bent, 0);
+  Bend(&problem.edges[bent]);
+  const SimilarityAveragingResult result = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+
+  EXPECT_EQ(result.excluded,
+            (std::vector<bool>{false, false, false, true, false}));
+  // The other four stay one part, accurately aligned along the rest.
+  for (const int c : {1, 2, 4}) {
+    EXPECT_EQ(result.part_of_community[c], result.part_of_community[0]);
+  }
+  EXPECT_NE(result.part_of_community[3], result.part_of_community[0]);
+  Problem remaining = problem;
+  remaining.world_from_community.erase(remaining.world_from_community.begin() +
+                                       3);
+  SimilarityAveragingResult remaining_result = result;
+  remaining_result.world_from_community.erase(
+      remaining_result.world_from_community.begin() + 3);
+  remaining.sizes.erase(remaining.sizes.begin() + 3);
+  const Errors errors = MaxErrors(remaining_result, remaining);
+  EXPECT_LT(errors.rotation_deg, 1e-6);
+  EXPECT_LT(errors.position, 1e-5);
+}
+
+TEST(AverageSimilarities, DoubtfulCommunityThatBreaksACycleLeavesTheMerge) {
+  // Community 2 is as large as the others, but its own model is in doubt.
+  Problem problem = MakeCycle({150, 120, 110, 130, 100}, 22);
+  const int bent = FindEdge(problem, 1, 2);
+  ASSERT_GE(bent, 0);
+  Bend(&problem.edges[bent]);
+  std::vector<AveragedCommunity> communities = problem.Communities();
+  communities[2].doubtful = true;
+  const SimilarityAveragingResult result = AverageSimilarities(
+      communities, problem.edges, SimilarityAveragingOptions());
+  EXPECT_EQ(result.excluded,
+            (std::vector<bool>{false, false, true, false, false}));
+  EXPECT_EQ(result.NumParts(), 2);
+}
+
+TEST(AverageSimilarities, WeaklySupportedEdgeTakesUpTheDisagreement) {
+  // Communities of equal standing; the wrong edge has the fewest inliers.
+  // It alone is dropped and no community leaves the merge.
+  Problem problem = MakeCycle({100, 100, 100, 100, 100}, 23);
+  const int bent = FindEdge(problem, 0, 1);
+  ASSERT_GE(bent, 0);
+  Bend(&problem.edges[bent]);
+  for (RelativeSimilarity& edge : problem.edges) {
+    edge.num_inliers = 300;
+  }
+  problem.edges[bent].num_inliers = 40;
+  const SimilarityAveragingResult result = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+  EXPECT_EQ(result.NumParts(), 1);
+  for (size_t e = 0; e < problem.edges.size(); ++e) {
+    EXPECT_EQ(result.edges[e].kept, static_cast<int>(e) != bent) << e;
+  }
+  EXPECT_EQ(result.excluded, std::vector<bool>(5, false));
+  EXPECT_LT(MaxErrors(result, problem).rotation_deg, 1e-6);
 }
 
 }  // namespace

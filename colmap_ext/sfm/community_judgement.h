@@ -1,0 +1,60 @@
+// Judging a community's own model before the merge trusts it.
+//
+// A community is reconstructed from a part of the view graph only, and a
+// part can be badly conditioned on its own: a short stretch of a walkway
+// along a flat wall, a chain with little overlap. Its incremental mapper
+// then bends the model, breaks it into pieces or leaves images out, and one
+// similarity per community cannot align such a model to all its neighbours.
+// The mapper's own result tells the likely cases, relative to the other
+// communities of the same run (the same images, matcher and options):
+//   - it registered a smaller fraction of the images it was given (in its
+//     largest model, if it broke into several) than `min_registered_fraction`
+//     times the median fraction of all communities (where every community
+//     leaves many images out, as along a walkway of flat walls, that is the
+//     data, not one community's failure), or
+//   - its mean reprojection error exceeds `max_relative_reprojection_error`
+//     times the median of the communities' means.
+// A doubtful community is not dropped for that alone: the similarity
+// averaging gives it little weight and drops it where its similarities
+// disagree with the others (similarity_averaging.h).
+
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace colmap {
+
+// What the incremental mapper of a community produced.
+struct CommunityModelReport {
+  // Images given to the mapper (its own and those it borrowed).
+  int num_images = 0;
+  // Registered images of the model that takes part in the merge (the
+  // largest; 0 if there is none).
+  int num_registered = 0;
+  // Models the mapper made.
+  int num_models = 0;
+  // Mean reprojection error of the model that takes part (pixels).
+  double mean_reprojection_error = 0.0;
+};
+
+struct CommunityJudgementOptions {
+  double min_registered_fraction = 0.9;
+  double max_relative_reprojection_error = 1.5;
+
+  bool Check() const;
+};
+
+struct CommunityJudgement {
+  bool doubtful = false;
+  // Why, for the log (empty if not doubtful).
+  std::string reason;
+};
+
+// Judges each community against the others (communities without a model
+// are not judged).
+std::vector<CommunityJudgement> JudgeCommunityModels(
+    const std::vector<CommunityModelReport>& reports,
+    const CommunityJudgementOptions& options);
+
+}  // namespace colmap

@@ -1,0 +1,234 @@
+#include "colmap_ext/sfm/covisibility_check.h"
+
+#include "colmap/math/math.h"
+#include "colmap/util/logging.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace colmap {
+namespace {
+
+// One registered image in the common frame.
+struct ImageView {
+  image_t image_id = kInvalidImageId;
+  const Camera* camera = nullptr;
+  Sim3d cam_from_common;
+  Eigen::Vector3d center;
+  // Some of the 3D points it observes, in the common frame.
+  std::vector<Eigen::Vector3d> points;
+};
+
+std::vector<ImageView> ImageViews(const Reconstruction& reconstruction,
+                                  const Sim3d& common_from_model,
+                                  const int max_num_points) {
+  const Sim3d model_from_common = Inverse(common_from_model);
+  std::vector<ImageView> views;
+  views.reserve(reconstruction.NumRegImages());
+  for (const image_t image_id : reconstruction.RegImageIds()) {
+    const Image& image = reconstruction.Image(image_id);
+    ImageView view;
+    view.image_id = image_id;
+    view.camera = &reconstruction.Camera(image.CameraId());
+    const Rigid3d& cam_from_model = image.CamFromWorld();
+    view.cam_from_common =
+        Sim3d(1, cam_from_model.rotation, cam_from_model.translation) *
+        model_from_common;
+    view.center = Inverse(view.cam_from_common).translation;
+    std::vector<point3D_t> point3D_ids;
+    for (const Point2D& point2D : image.Points2D()) {
+      if (point2D.HasPoint3D()) {
+        point3D_ids.push_back(point2D.point3D_id);
+      }
+    }
+    const size_t step =
+        std::max<size_t>(1, point3D_ids.size() / std::max(1, max_num_points));
+    for (size_t i = 0; i < point3D_ids.size(); i += step) {
+      view.points.push_back(common_from_model *
+                            reconstruction.Point3D(point3D_ids[i]).xyz);
+    }
+    views.push_back(std::move(view));
+  }
+  return views;
+}
+
+// How many points of `other` `view` sees: in front, inside the image, under
+// rays at most `max_ray_angle` apart.
+int NumVisiblePoints(const ImageView& view,
+                     const ImageView& other,
+                     const double min_cos_ray_angle) {
+  int num_visible = 0;
+  for (const Eigen::Vector3d& point : other.points) {
+    const Eigen::Vector3d point_in_cam = view.cam_from_common * point;
+    if (point_in_cam.z() <= 0) {
+      continue;
+    }
+    const Eigen::Vector2d xy =
+        view.camera->ImgFromCam(point_in_cam.hnormalized());
+    if (xy.x() < 0 || xy.y() < 0 || xy.x() >= view.camera->width ||
+        xy.y() >= view.camera->height) {
+      continue;
+    }
+    const Eigen::Vector3d ray = (point - view.center).normalized();
+    const Eigen::Vector3d other_ray = (point - other.center).normalized();
+    if (ray.dot(other_ray) < min_cos_ray_angle) {
+      continue;
+    }
+    ++num_visible;
+  }
+  return num_visible;
+}
+
+bool PredictedCovisible(const ImageView& view1,
+                        const ImageView& view2,
+                        const CovisibilityCheckOptions& options) {
+  const double min_cos = std::cos(DegToRad(options.max_ray_angle_deg));
+  return NumVisiblePoints(view1, view2, min_cos) >= options.min_num_points &&
+         NumVisiblePoints(view2, view1, min_cos) >= options.min_num_points;
+}
+
+// The given quantile of the centre distances of the verified pairs among
+// `views`; 0 if there are none.
+double VerifiedPairDistanceQuantile(
+    const std::vector<ImageView>& views,
+    const std::function<bool(image_t, image_t)>& is_verified_pair,
+    const double quantile) {
+  std::vector<double> distances;
+  for (size_t i = 0; i < views.size(); ++i) {
+    for (size_t j = i + 1; j < views.size(); ++j) {
+      if (is_verified_pair(views[i].image_id, views[j].image_id)) {
+        distances.push_back((views[i].center - views[j].center).norm());
+      }
+    }
+  }
+  if (distances.empty()) {
+    return 0;
+  }
+  const size_t k = std::min(
+      distances.size() - 1,
+      static_cast<size_t>(std::floor(quantile * (distances.size() - 1))));
+  std::nth_element(distances.begin(), distances.begin() + k, distances.end());
+  return distances[k];
+}
+
+// Predicted co-visible and verified pairs among the near pairs of `views`,
+// at most `max_num_pairs` of them (evenly chosen).
+void CountInternalPairs(
+    const std::vector<ImageView>& views,
+    const double max_distance,
+    const std::function<bool(image_t, image_t)>& is_verified_pair,
+    const CovisibilityCheckOptions& options,
+    int* num_predicted,
+    int* num_verified) {
+  std::vector<std::pair<int, int>> near_pairs;
+  for (size_t i = 0; i < views.size(); ++i) {
+    for (size_t j = i + 1; j < views.size(); ++j) {
+      if ((views[i].center - views[j].center).norm() <= max_distance) {
+        near_pairs.emplace_back(static_cast<int>(i), static_cast<int>(j));
+      }
+    }
+  }
+  const size_t step = std::max<size_t>(
+      1, near_pairs.size() / std::max(1, options.max_num_internal_pairs));
+  for (size_t k = 0; k < near_pairs.size(); k += step) {
+    const ImageView& view1 = views[near_pairs[k].first];
+    const ImageView& view2 = views[near_pairs[k].second];
+    if (PredictedCovisible(view1, view2, options)) {
+      ++*num_predicted;
+      *num_verified += is_verified_pair(view1.image_id, view2.image_id);
+    }
+  }
+}
+
+}  // namespace
+
+bool CovisibilityCheckOptions::Check() const {
+  CHECK_OPTION_GT(min_num_points, 0);
+  CHECK_OPTION_GT(max_ray_angle_deg, 0);
+  CHECK_OPTION_LE(max_ray_angle_deg, 180);
+  CHECK_OPTION_GT(max_distance_quantile, 0);
+  CHECK_OPTION_LE(max_distance_quantile, 1);
+  CHECK_OPTION_GT(max_num_points_per_image, 0);
+  CHECK_OPTION_GT(max_num_internal_pairs, 0);
+  CHECK_OPTION_GE(min_rate_ratio, 0);
+  CHECK_OPTION_GE(min_num_predicted_pairs, 1);
+  return true;
+}
+
+double CovisibilityCheck::CrossRate() const {
+  return num_predicted_cross_pairs == 0
+             ? 0.0
+             : static_cast<double>(num_verified_cross_pairs) /
+                   num_predicted_cross_pairs;
+}
+
+double CovisibilityCheck::InternalRate() const {
+  return num_predicted_internal_pairs == 0
+             ? 0.0
+             : static_cast<double>(num_verified_internal_pairs) /
+                   num_predicted_internal_pairs;
+}
+
+CovisibilityCheck CheckCovisibility(
+    const Reconstruction& reconstruction1,
+    const Reconstruction& reconstruction2,
+    const Sim3d& second_from_first,
+    const std::function<bool(image_t, image_t)>& is_verified_pair,
+    const CovisibilityCheckOptions& options) {
+  THROW_CHECK(options.Check());
+  CovisibilityCheck check;
+  const std::vector<ImageView> views1 =
+      ImageViews(reconstruction1, Sim3d(), options.max_num_points_per_image);
+  const std::vector<ImageView> views2 =
+      ImageViews(reconstruction2,
+                 Inverse(second_from_first),
+                 options.max_num_points_per_image);
+
+  const double max_distance =
+      std::max(VerifiedPairDistanceQuantile(
+                   views1, is_verified_pair, options.max_distance_quantile),
+               VerifiedPairDistanceQuantile(
+                   views2, is_verified_pair, options.max_distance_quantile));
+  if (max_distance <= 0) {
+    return check;
+  }
+
+  CountInternalPairs(views1,
+                     max_distance,
+                     is_verified_pair,
+                     options,
+                     &check.num_predicted_internal_pairs,
+                     &check.num_verified_internal_pairs);
+  CountInternalPairs(views2,
+                     max_distance,
+                     is_verified_pair,
+                     options,
+                     &check.num_predicted_internal_pairs,
+                     &check.num_verified_internal_pairs);
+
+  for (const ImageView& view1 : views1) {
+    if (reconstruction2.ExistsImage(view1.image_id) &&
+        reconstruction2.IsImageRegistered(view1.image_id)) {
+      continue;
+    }
+    for (const ImageView& view2 : views2) {
+      if ((view1.center - view2.center).norm() > max_distance ||
+          (reconstruction1.ExistsImage(view2.image_id) &&
+           reconstruction1.IsImageRegistered(view2.image_id))) {
+        continue;
+      }
+      if (PredictedCovisible(view1, view2, options)) {
+        ++check.num_predicted_cross_pairs;
+        check.num_verified_cross_pairs +=
+            is_verified_pair(view1.image_id, view2.image_id);
+      }
+    }
+  }
+
+  check.consistent =
+      check.num_predicted_cross_pairs < options.min_num_predicted_pairs ||
+      check.CrossRate() >= options.min_rate_ratio * check.InternalRate();
+  return check;
+}
+
+}  // namespace colmap

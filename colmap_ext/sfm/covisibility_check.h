@@ -1,0 +1,91 @@
+// Does an alignment of two reconstructions explain which images were matched?
+//
+// A similarity between two community models can be supported by many
+// inlier correspondences and still be wrong: matches between two identical
+// facades (repeated structure) agree with the transform that stacks one
+// facade on the other, as true matches agree with the true transform. What
+// gives such a merge away is what is missing (Zach, Irschara and Bischof,
+// "What can missing correspondences tell us about 3D structure and motion?",
+// CVPR 2008; Heinly et al., "Correcting for duplicate scene structure in
+// sparse 3D reconstruction", ECCV 2014): once aligned, many image pairs
+// across the two models would see the same structure, but the matcher
+// verified few of them.
+//
+// Here the question is asked per image pair. With both models in one frame,
+// a pair of images is predicted co-visible when each sees at least
+// `min_num_points` of the other's 3D points in front of it, inside its
+// image, under rays less than `max_ray_angle_deg` apart (features are not
+// matched across larger viewpoint changes). The check compares
+//   cross rate    = verified / predicted co-visible pairs across the models,
+//   internal rate = verified / predicted co-visible pairs within each model,
+// so that the matcher's own habits (exhaustive, sequential, vocabulary tree)
+// cancel out: a true alignment predicts cross pairs that the matcher verified
+// about as often as it verified the predicted pairs inside the models, a
+// false one predicts many pairs it never verified. Only pairs whose camera
+// centres are closer than the longest verified pairs inside the models are
+// tested, so the cost follows the images near the border, and drift far
+// from it does not matter.
+
+#pragma once
+
+#include "colmap/geometry/sim3.h"
+#include "colmap/scene/reconstruction.h"
+#include "colmap/util/types.h"
+
+#include <functional>
+
+namespace colmap {
+
+struct CovisibilityCheckOptions {
+  // Points of the other image that must project into an image for the pair
+  // to be predicted co-visible.
+  int min_num_points = 15;
+
+  // Largest angle between the two images' rays to a point for it to count.
+  double max_ray_angle_deg = 60.0;
+
+  // Pairs are tested up to this quantile of the centre distances of the
+  // verified pairs inside the models.
+  double max_distance_quantile = 0.9;
+
+  // At most this many points per image are projected (evenly chosen).
+  int max_num_points_per_image = 200;
+
+  // At most this many pairs inside each model are tested for its rate.
+  int max_num_internal_pairs = 2000;
+
+  // The alignment is rejected when the cross rate is below this fraction of
+  // the internal rate...
+  double min_rate_ratio = 0.25;
+
+  // ...and at least this many cross pairs were predicted (fewer say
+  // nothing either way).
+  int min_num_predicted_pairs = 10;
+
+  bool Check() const;
+};
+
+struct CovisibilityCheck {
+  int num_predicted_cross_pairs = 0;
+  int num_verified_cross_pairs = 0;
+  int num_predicted_internal_pairs = 0;
+  int num_verified_internal_pairs = 0;
+
+  double CrossRate() const;
+  double InternalRate() const;
+  // Whether the alignment explains the matches (true where there are too few
+  // predicted pairs to tell).
+  bool consistent = true;
+};
+
+// `is_verified_pair(image_id1, image_id2)` tells whether the matcher
+// verified a pair (e.g. an edge of the view graph). Images registered in
+// both reconstructions are left out of the cross pairs.
+CovisibilityCheck CheckCovisibility(
+    const Reconstruction& reconstruction1,
+    const Reconstruction& reconstruction2,
+    const Sim3d& second_from_first,
+    const std::function<bool(image_t, image_t)>& is_verified_pair,
+    const CovisibilityCheckOptions& options);
+
+}  // namespace colmap

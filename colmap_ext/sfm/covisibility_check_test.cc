@@ -1,0 +1,131 @@
+#include "colmap_ext/sfm/covisibility_check.h"
+
+#include "colmap_ext/scene/synthetic_scene.h"
+
+#include "colmap/scene/database.h"
+
+#include <unordered_set>
+
+#include <gtest/gtest.h>
+
+namespace colmap {
+namespace {
+
+// Two landmarks joined by a walkway; the "matcher" verified every pair that
+// shares at least 15 points. Community 1 is landmark 0 with the first half
+// of the walkway, community 2 the rest, each in a frame of its own.
+class CheckCovisibilityTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    SyntheticSceneOptions options;
+    options.num_clusters = 2;
+    options.num_images_per_cluster = 20;
+    options.num_images_per_link = 30;
+    options.close_loop = false;
+    options.num_points_per_cluster = 1500;
+    options.num_points_per_link = 800;
+    options.seed = 3;
+    SynthesizeCommunityScene(options, &scene_, /*database=*/nullptr);
+    const Reconstruction& truth = scene_.ground_truth;
+    landmark_offset_ = Eigen::Vector3d(options.landmark_spacing, 0, 0);
+
+    std::map<image_pair_t, int> num_shared;
+    for (const auto& point3D : truth.Points3D()) {
+      const auto& elements = point3D.second.track.Elements();
+      for (size_t i = 0; i < elements.size(); ++i) {
+        for (size_t j = 0; j < i; ++j) {
+          ++num_shared[Database::ImagePairToPairId(elements[i].image_id,
+                                                   elements[j].image_id)];
+        }
+      }
+    }
+    for (const auto& pair_and_count : num_shared) {
+      if (pair_and_count.second >= 15) {
+        verified_pairs_.insert(pair_and_count.first);
+      }
+    }
+
+    // Walkway images go to the landmark they are nearer to.
+    model1_ = truth;
+    model2_ = truth;
+    for (const image_t image_id : truth.RegImageIds()) {
+      const int cluster = scene_.image_cluster.at(image_id);
+      const bool first =
+          cluster == 0 ||
+          (cluster < 0 && truth.Image(image_id).ProjectionCenter().x() < 0);
+      (first ? model2_ : model1_).DeRegisterImage(image_id);
+    }
+    model1_.Transform(Inverse(world_from_model1_));
+    model2_.Transform(Inverse(world_from_model2_));
+  }
+
+  bool IsVerified(const image_t image_id1, const image_t image_id2) const {
+    return verified_pairs_.count(
+               Database::ImagePairToPairId(image_id1, image_id2)) > 0;
+  }
+
+  CovisibilityCheck Check(const Sim3d& second_from_first) const {
+    return CheckCovisibility(
+        model1_,
+        model2_,
+        second_from_first,
+        [this](image_t a, image_t b) { return IsVerified(a, b); },
+        CovisibilityCheckOptions());
+  }
+
+  SyntheticScene scene_;
+  Eigen::Vector3d landmark_offset_;
+  std::unordered_set<image_pair_t> verified_pairs_;
+  Reconstruction model1_;
+  Reconstruction model2_;
+  const Sim3d world_from_model1_ = Sim3d(
+      2.0,
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX())),
+      Eigen::Vector3d(1, 2, 3));
+  const Sim3d world_from_model2_ = Sim3d(
+      0.5,
+      Eigen::Quaterniond(Eigen::AngleAxisd(-1.0, Eigen::Vector3d::UnitZ())),
+      Eigen::Vector3d(-4, 0, 1));
+};
+
+TEST_F(CheckCovisibilityTest, TrueAlignmentExplainsTheMatches) {
+  const CovisibilityCheck check =
+      Check(Inverse(world_from_model2_) * world_from_model1_);
+  EXPECT_TRUE(check.consistent);
+  // The walkway's halves meet: there are co-visible pairs to judge by, and
+  // the matcher verified them as often as those inside the models.
+  EXPECT_GE(check.num_predicted_cross_pairs, 10);
+  EXPECT_GT(check.num_predicted_internal_pairs, 100);
+  EXPECT_GT(check.CrossRate(), 0.5 * check.InternalRate());
+}
+
+TEST_F(CheckCovisibilityTest, StackedLandmarksContradictTheMatches) {
+  // The transform that puts the second landmark onto the first, as matches
+  // between two identical towers would suggest.
+  Sim3d stacked;
+  stacked.translation = landmark_offset_;
+  const CovisibilityCheck check =
+      Check(Inverse(world_from_model2_) * stacked * world_from_model1_);
+  EXPECT_FALSE(check.consistent);
+  EXPECT_GE(check.num_predicted_cross_pairs, 50);
+  EXPECT_LT(check.CrossRate(), 0.1 * check.InternalRate());
+}
+
+TEST_F(CheckCovisibilityTest, ModelsFarApartSayNothing) {
+  Sim3d far_apart;
+  far_apart.translation = Eigen::Vector3d(0, 1000, 0);
+  const CovisibilityCheck check =
+      Check(Inverse(world_from_model2_) * far_apart * world_from_model1_);
+  EXPECT_TRUE(check.consistent);
+  EXPECT_EQ(check.num_predicted_cross_pairs, 0);
+}
+
+TEST(CovisibilityCheckOptions, Check) {
+  CovisibilityCheckOptions options;
+  EXPECT_TRUE(options.Check());
+  options.max_distance_quantile = 0;
+  EXPECT_FALSE(options.Check());
+}
+
+}  // namespace
+}  // namespace colmap
