@@ -496,9 +496,7 @@ CommunityMapperController::Options::CommunityIncrementalOptions(
 }
 
 bool CommunityMapperController::Options::Check() const {
-  CHECK_OPTION_GE(modularity_threshold, 0.0);
-  CHECK_OPTION_LT(modularity_threshold, 1.0);
-  CHECK_OPTION_GE(min_community_size, 2);
+  CHECK_OPTION(community_detection.Check());
   CHECK_OPTION(min_num_matches == -1 || min_num_matches > 0);
   CHECK_OPTION(edge_weights == "unit" || edge_weights == "num_inliers");
   CHECK_OPTION_GE(image_overlap, 0);
@@ -566,11 +564,8 @@ void CommunityMapperController::Run() {
     return;
   }
 
-  CommunityDetectionOptions detection_options;
-  detection_options.modularity_threshold = options_.modularity_threshold;
-  detection_options.min_community_size = options_.min_community_size;
   const CommunityPartition partition = DetectCommunities(
-      graph, GreedyModularityPartitioner(), detection_options);
+      graph, GreedyModularityPartitioner(), options_.community_detection);
   const CommunityImages communities = GroupImagesByCommunity(
       view_graph, graph, partition, options_.image_overlap);
   summary_.max_modularity = partition.MaxModularity();
@@ -587,13 +582,15 @@ void CommunityMapperController::Run() {
       "%d communities (%d before merging those under %d images), sizes:%s",
       partition.NumCommunities(),
       partition.num_communities_before_merge,
-      options_.min_community_size,
+      options_.community_detection.min_community_size,
       sizes.c_str());
   if (!options_.output_path.empty()) {
     const std::string path = JoinPaths(options_.output_path, "communities.txt");
     WriteTextFileAtomically(
-        CommunitiesToText(
-            view_graph, partition, options_.modularity_threshold, edge_weight),
+        CommunitiesToText(view_graph,
+                          partition,
+                          options_.community_detection.modularity_threshold,
+                          edge_weight),
         path);
     LOG(INFO) << "Wrote " << path;
   }

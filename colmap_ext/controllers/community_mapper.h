@@ -50,13 +50,9 @@ class CommunityMapperController : public BaseController {
     // controller writes nothing.
     std::string output_path;
 
-    // Split a view (sub)graph only where its peak modularity Qmax exceeds
-    // this value (CSfM: 0.3).
-    double modularity_threshold = 0.3;
-
-    // Communities with fewer images are merged into the connected community
-    // with the most view-graph edges to them (CSfM: N = 20).
-    int min_community_size = 20;
+    // Community detection: the modularity threshold (CSfM: 0.3), the
+    // minimum community size (CSfM: N = 20), the balance rule.
+    CommunityDetectionOptions community_detection;
 
     // Minimum number of verified inlier matches for a view-graph edge;
     // -1 takes the incremental mapper's min_num_matches.

@@ -22,18 +22,18 @@ bool CheckCommandOptions(const CommunityMapperController::Options& options) {
     LOG(ERROR) << message;
     valid = false;
   };
-  if (!(options.modularity_threshold >= 0 &&
-        options.modularity_threshold < 1)) {
+  if (!(options.community_detection.modularity_threshold >= 0 &&
+        options.community_detection.modularity_threshold < 1)) {
     fail(StringPrintf(
         "--CommunityMapper.modularity_threshold is %g: it must be in [0, 1) "
         "(the CSfM paper uses 0.3).",
-        options.modularity_threshold));
+        options.community_detection.modularity_threshold));
   }
-  if (options.min_community_size < 2) {
+  if (options.community_detection.min_community_size < 2) {
     fail(StringPrintf(
         "--CommunityMapper.min_community_size is %d: it must be at least 2 "
         "(the CSfM paper uses 20).",
-        options.min_community_size));
+        options.community_detection.min_community_size));
   }
   if (options.min_num_matches != -1 && options.min_num_matches < 1) {
     fail(StringPrintf(
@@ -385,13 +385,18 @@ int RunCommunityMapper(int argc, char** argv) {
     });
   };
   add("modularity_threshold",
-      &mapper_options.modularity_threshold,
+      &mapper_options.community_detection.modularity_threshold,
       "split a view (sub)graph only where its peak modularity Qmax exceeds "
       "this");
   add("min_community_size",
-      &mapper_options.min_community_size,
+      &mapper_options.community_detection.min_community_size,
       "communities with fewer images are merged into their most connected "
       "neighbour");
+  add("max_community_fraction",
+      &mapper_options.community_detection.max_community_fraction,
+      "a (sub)graph holding more than this fraction of its connected "
+      "component is split at its modularity peak even below the threshold, "
+      "so that no community sets the pace alone (1: threshold only)");
   add("min_num_matches",
       &mapper_options.min_num_matches,
       "minimum verified inliers of a view-graph edge (-1: "
@@ -460,11 +465,12 @@ int RunCommunityMapper(int argc, char** argv) {
       "try to register, in the merged model, images no community registered");
   add("robust_first_adjustment",
       &mapper_options.refinement.robust_first_adjustment,
-      "start the merged model's bundle adjustment with a robust loss");
-  add("retriangulate",
-      &mapper_options.refinement.retriangulate,
-      "after the merged model's first bundle adjustment, triangulate all its "
-      "points anew over the whole correspondence graph");
+      "align the merged model's cameras under a robust loss");
+  add("alignment_max_points_per_image",
+      &mapper_options.refinement.alignment_max_points_per_image,
+      "points per image (longest tracks first) in the merged model's first "
+      "bundle adjustment, which aligns the communities' cameras before all "
+      "points are triangulated anew");
   add("ba_function_tolerance",
       &mapper_options.refinement.function_tolerance,
       "the merged model's bundle adjustments stop once an iteration lowers "

@@ -223,6 +223,8 @@ bool CommunityDetectionOptions::Check() const {
   CHECK_OPTION_LT(modularity_threshold, 1.0);
   CHECK_OPTION_GE(min_community_size, 2);
   CHECK_OPTION_GE(max_recursion_depth, 0);
+  CHECK_OPTION_GT(max_community_fraction, 0.0);
+  CHECK_OPTION_LE(max_community_fraction, 1.0);
   return true;
 }
 
@@ -266,12 +268,14 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
   struct Pending {
     std::vector<int> vertices;
     int depth = 0;
+    // Images of the connected component it belongs to.
+    int component_size = 0;
   };
   std::vector<Pending> pending;
   const std::vector<std::vector<int>> components = graph.ConnectedComponents();
   partition.num_components = static_cast<int>(components.size());
   for (auto it = components.rbegin(); it != components.rend(); ++it) {
-    pending.push_back({*it, 0});
+    pending.push_back({*it, 0, static_cast<int>(it->size())});
   }
 
   int num_final = 0;
@@ -292,6 +296,17 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
       record.num_parts = result.num_communities;
       record.accepted = result.num_communities > 1 &&
                         result.modularity > options.modularity_threshold;
+      if (!record.accepted && result.num_communities > 1 &&
+          current.vertices.size() >
+              options.max_community_fraction * current.component_size) {
+        std::vector<int> part_sizes(result.num_communities, 0);
+        for (const int label : result.membership) {
+          ++part_sizes[label];
+        }
+        std::sort(part_sizes.begin(), part_sizes.end(), std::greater<int>());
+        record.balance = part_sizes[1] >= options.min_community_size;
+        record.accepted = record.balance;
+      }
       partition.splits.push_back(record);
       LOG(INFO) << StringPrintf(
           "%*sSplit %d images (%d edges): Qmax = %.4f, %d parts -> %s",
@@ -301,7 +316,9 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
           record.num_edges,
           record.modularity,
           record.num_parts,
-          record.accepted ? "split" : "kept as one community");
+          record.balance    ? "split (more than its share of the component)"
+          : record.accepted ? "split"
+                            : "kept as one community");
 
       if (record.accepted) {
         split = true;
@@ -318,6 +335,7 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
                part_graph.ConnectedComponents()) {
             Pending child;
             child.depth = current.depth + 1;
+            child.component_size = current.component_size;
             for (const int i : piece) {
               child.vertices.push_back(part[i]);
             }

@@ -97,13 +97,29 @@ TEST(DetectCommunities, DenseRandomGraphStaysOneCommunity) {
     }
   }
 
-  const CommunityPartition partition = DetectCommunities(
-      graph, GreedyModularityPartitioner(), CommunityDetectionOptions());
-
+  // The paper's rule alone: no structure, no split.
+  CommunityDetectionOptions options;
+  options.max_community_fraction = 1;
+  const CommunityPartition partition =
+      DetectCommunities(graph, GreedyModularityPartitioner(), options);
   EXPECT_EQ(partition.NumCommunities(), 1);
   ASSERT_EQ(partition.splits.size(), 1);
   EXPECT_LT(partition.splits[0].modularity, 0.3);
   EXPECT_FALSE(partition.splits[0].accepted);
+
+  // With the balance rule (the default), a graph holding its whole
+  // component is cut at its modularity peak all the same, into parts of at
+  // least min_community_size, so that two workers share it.
+  const CommunityPartition balanced = DetectCommunities(
+      graph, GreedyModularityPartitioner(), CommunityDetectionOptions());
+  ASSERT_GE(balanced.splits.size(), 1);
+  EXPECT_TRUE(balanced.splits[0].accepted);
+  EXPECT_TRUE(balanced.splits[0].balance);
+  ASSERT_GE(balanced.NumCommunities(), 2);
+  for (const std::vector<int>& community : balanced.Communities()) {
+    EXPECT_GE(community.size(), 20);
+    EXPECT_LE(community.size(), 60);
+  }
 }
 
 TEST(GreedyModularityPartitioner, ZacharyKarateClubQmax) {
@@ -281,9 +297,39 @@ TEST(DetectCommunities, RecursesUntilNoCommunitySplits) {
   EXPECT_EQ(max_depth, 2);
 }
 
+TEST(DetectCommunities, CommunityHoldingMoreThanItsShareIsSplit) {
+  // No modularity above the threshold anywhere: only the balance rule
+  // splits, and only where a (sub)graph holds more than half its component
+  // and two parts reach the minimum size.
+  CommunityDetectionOptions options = Options(/*min_community_size=*/8);
+  const CommunityPartition partition = DetectCommunities(
+      Path(32), HalvingPartitioner(/*modularity=*/0.1), options);
+  EXPECT_EQ(partition.NumCommunities(), 2);
+  EXPECT_EQ(NumCommunitiesAmong(partition, 0, 16), 1);
+  EXPECT_EQ(NumCommunitiesAmong(partition, 16, 16), 1);
+  ASSERT_EQ(partition.splits.size(), 3);
+  EXPECT_TRUE(partition.splits[0].balance);
+  EXPECT_FALSE(partition.splits[1].accepted);
+
+  // Parts below the minimum size: no split.
+  options.min_community_size = 17;
+  EXPECT_EQ(DetectCommunities(
+                Path(32), HalvingPartitioner(/*modularity=*/0.1), options)
+                .NumCommunities(),
+            1);
+  // The paper's rule alone.
+  options = Options(/*min_community_size=*/8);
+  options.max_community_fraction = 1;
+  EXPECT_EQ(DetectCommunities(
+                Path(32), HalvingPartitioner(/*modularity=*/0.1), options)
+                .NumCommunities(),
+            1);
+}
+
 TEST(DetectCommunities, ModularityAtThresholdDoesNotSplit) {
   CommunityDetectionOptions options = Options(/*min_community_size=*/2);
   options.modularity_threshold = 0.5;
+  options.max_community_fraction = 1;
   const CommunityPartition partition = DetectCommunities(
       Path(32), HalvingPartitioner(/*modularity=*/0.5), options);
   EXPECT_EQ(partition.NumCommunities(), 1);

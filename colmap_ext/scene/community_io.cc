@@ -25,7 +25,8 @@ std::string CommunitiesToText(const ViewGraph& view_graph,
       ViewGraphEdgeWeightToString(edge_weight).c_str(),
       partition.num_components);
   text << StringPrintf(
-      "# Splits (Qmax > %.3f splits a graph; depth 0 is a whole component):\n",
+      "# Splits (Qmax > %.3f splits a graph, as does holding more than its "
+      "share of the component (balance); depth 0 is a whole component):\n",
       modularity_threshold);
   for (const CommunityPartition::Split& split : partition.splits) {
     text << StringPrintf("#   depth %d: %d images, Qmax %.4f, %d parts, %s\n",
@@ -33,7 +34,9 @@ std::string CommunitiesToText(const ViewGraph& view_graph,
                          split.num_vertices,
                          split.modularity,
                          split.num_parts,
-                         split.accepted ? "split" : "not split");
+                         split.balance    ? "split (balance)"
+                         : split.accepted ? "split"
+                                          : "not split");
   }
   const std::vector<std::vector<int>> communities = partition.Communities();
   text << StringPrintf(

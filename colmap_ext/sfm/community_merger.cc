@@ -225,9 +225,65 @@ bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
   return summary.IsSolutionUsable();
 }
 
+BundleAdjustmentOptions RobustOptions(BundleAdjustmentOptions options) {
+  options.loss_function_type =
+      BundleAdjustmentOptions::LossFunctionType::SOFT_L1;
+  options.loss_function_scale = 1.0;
+  return options;
+}
+
+// Bundle adjusts all cameras of `reconstruction` on a copy that keeps, per
+// image, only the `alignment_max_points_per_image` points with the longest
+// tracks (those that tie the most images together), intrinsics fixed, then
+// copies the poses back. The points of `reconstruction` are left as they
+// were.
+void AlignCameras(const MergedModelRefinementOptions& options,
+                  const BundleAdjustmentOptions& ba_options,
+                  Reconstruction* reconstruction) {
+  Reconstruction reduced = *reconstruction;
+  std::unordered_set<point3D_t> kept;
+  for (const image_t image_id : reduced.RegImageIds()) {
+    std::vector<std::pair<size_t, point3D_t>> points;
+    for (const Point2D& point2D : reduced.Image(image_id).Points2D()) {
+      if (point2D.HasPoint3D()) {
+        points.emplace_back(reduced.Point3D(point2D.point3D_id).track.Length(),
+                            point2D.point3D_id);
+      }
+    }
+    const size_t num_kept =
+        std::min<size_t>(points.size(), options.alignment_max_points_per_image);
+    std::partial_sort(points.begin(),
+                      points.begin() + num_kept,
+                      points.end(),
+                      std::greater<std::pair<size_t, point3D_t>>());
+    for (size_t k = 0; k < num_kept; ++k) {
+      kept.insert(points[k].second);
+    }
+  }
+  for (const point3D_t point3D_id : reduced.Point3DIds()) {
+    if (kept.count(point3D_id) == 0) {
+      reduced.DeletePoint3D(point3D_id);
+    }
+  }
+  // The communities estimated the intrinsics already; only the poses need
+  // to come together.
+  BundleAdjustmentOptions alignment_options = ba_options;
+  alignment_options.refine_focal_length = false;
+  alignment_options.refine_principal_point = false;
+  alignment_options.refine_extra_params = false;
+  ObservationManager observation_manager(reduced);
+  AdjustGlobalBundle(
+      alignment_options, options, &observation_manager, &reduced);
+  for (const image_t image_id : reduced.RegImageIds()) {
+    reconstruction->Image(image_id).CamFromWorld() =
+        reduced.Image(image_id).CamFromWorld();
+  }
+}
+
 }  // namespace
 
 bool MergedModelRefinementOptions::Check() const {
+  CHECK_OPTION_GT(alignment_max_points_per_image, 0);
   CHECK_OPTION_GE(function_tolerance, 0);
   CHECK_OPTION_GT(initial_trust_region_radius, 0);
   return true;
@@ -278,61 +334,59 @@ MergedModelRefinementSummary RefineMergedModel(
         timer.ElapsedSeconds());
   }
 
-  // As the incremental mapper's global refinement: complete and merge tracks
-  // over the whole correspondence graph, re-triangulate, then alternate
-  // bundle adjustment and filtering until few observations change. The first
-  // adjustment is the robust one (if asked); the last is always least
-  // squares on the observations that survived the filtering.
+  // 1. Alignment: the joined communities are each right, but where they
+  // meet they are only as close as the averaged similarities put them. A
+  // bundle adjustment of all cameras on a reduced set of points (robust
+  // loss, if asked) pulls them together.
   timer.Restart();
+  AlignCameras(
+      options,
+      options.robust_first_adjustment ? RobustOptions(ba_options) : ba_options,
+      reconstruction.get());
+  LOG(INFO) << StringPrintf("Aligned the cameras (%.1fs)",
+                            timer.ElapsedSeconds());
+
+  // 2. With the cameras in place, all points are triangulated anew over the
+  // whole correspondence graph, as the incremental mapper builds its tracks
+  // (the communities' tracks end at their borders, and their merge leaves
+  // some points split in two).
+  timer.Restart();
+  for (const point3D_t point3D_id : reconstruction->Point3DIds()) {
+    mapper.ObservationManager().DeletePoint3D(point3D_id);
+  }
+  for (const image_t image_id : reconstruction->RegImageIds()) {
+    mapper.TriangulateImage(triangulation, image_id);
+  }
   const size_t num_completed = mapper.CompleteAndMergeTracks(triangulation);
-  const size_t num_retriangulated = mapper.Retriangulate(triangulation);
   LOG(INFO) << StringPrintf(
-      "Completed and merged %d observations, re-triangulated %d (%.1fs)",
+      "Triangulated %d points anew, completed and merged %d observations "
+      "(%.1fs)",
+      static_cast<int>(reconstruction->NumPoints3D()),
       static_cast<int>(num_completed),
-      static_cast<int>(num_retriangulated),
       timer.ElapsedSeconds());
-  BundleAdjustmentOptions robust_options = ba_options;
-  robust_options.loss_function_type =
-      BundleAdjustmentOptions::LossFunctionType::SOFT_L1;
-  robust_options.loss_function_scale = 1.0;
-  const int num_refinements =
-      std::max(options.robust_first_adjustment ? 2 : 1,
-               mapper_options.ba_global_max_refinements);
-  for (int i = 0; i < num_refinements; ++i) {
+
+  // 3. As the incremental mapper's global refinement: least squares bundle
+  // adjustment alternating with filtering and track completion until few
+  // observations change.
+  for (int i = 0; i < std::max(1, mapper_options.ba_global_max_refinements);
+       ++i) {
     const size_t num_observations = reconstruction->ComputeNumObservations();
-    const bool robust = i == 0 && options.robust_first_adjustment;
-    AdjustGlobalBundle(robust ? robust_options : ba_options,
+    AdjustGlobalBundle(ba_options,
                        options,
                        &mapper.ObservationManager(),
                        reconstruction.get());
     reconstruction->Normalize();
-    if (i == 0 && options.retriangulate) {
-      // The cameras are now in place: the communities' points, split where
-      // their tracks crossed a border, give way to tracks triangulated
-      // anew over the whole correspondence graph.
-      timer.Restart();
-      for (const point3D_t point3D_id : reconstruction->Point3DIds()) {
-        mapper.ObservationManager().DeletePoint3D(point3D_id);
-      }
-      for (const image_t image_id : reconstruction->RegImageIds()) {
-        mapper.TriangulateImage(triangulation, image_id);
-      }
-      LOG(INFO) << StringPrintf("Re-triangulated %d points (%.1fs)",
-                                static_cast<int>(reconstruction->NumPoints3D()),
-                                timer.ElapsedSeconds());
-    }
     const size_t num_changed = mapper.CompleteAndMergeTracks(triangulation) +
                                mapper.FilterPoints(incremental);
     const double changed =
         num_observations == 0
             ? 0
             : static_cast<double>(num_changed) / num_observations;
-    LOG(INFO) << StringPrintf("Refinement %d%s: %d observations (%.5f) changed",
+    LOG(INFO) << StringPrintf("Refinement %d: %d observations (%.5f) changed",
                               i + 1,
-                              robust ? " (robust loss)" : "",
                               static_cast<int>(num_changed),
                               changed);
-    if (!robust && changed < mapper_options.ba_global_max_refinement_change) {
+    if (changed < mapper_options.ba_global_max_refinement_change) {
       break;
     }
   }

@@ -9,6 +9,9 @@
 namespace colmap {
 namespace {
 
+// The image is divided into kGridSize x kGridSize cells for its depth map.
+constexpr int kGridSize = 16;
+
 // One registered image in the common frame.
 struct ImageView {
   image_t image_id = kInvalidImageId;
@@ -17,6 +20,17 @@ struct ImageView {
   Eigen::Vector3d center;
   // Some of the 3D points it observes, in the common frame.
   std::vector<Eigen::Vector3d> points;
+  // Per grid cell, the smallest depth of the points it observes there (0:
+  // none): the surfaces it sees.
+  std::vector<double> min_depth;
+
+  int Cell(const Eigen::Vector2d& xy) const {
+    const int col = std::min(
+        kGridSize - 1, static_cast<int>(kGridSize * xy.x() / camera->width));
+    const int row = std::min(
+        kGridSize - 1, static_cast<int>(kGridSize * xy.y() / camera->height));
+    return row * kGridSize + col;
+  }
 };
 
 std::vector<ImageView> ImageViews(const Reconstruction& reconstruction,
@@ -36,9 +50,20 @@ std::vector<ImageView> ImageViews(const Reconstruction& reconstruction,
         model_from_common;
     view.center = Inverse(view.cam_from_common).translation;
     std::vector<point3D_t> point3D_ids;
+    view.min_depth.assign(kGridSize * kGridSize, 0.0);
     for (const Point2D& point2D : image.Points2D()) {
       if (point2D.HasPoint3D()) {
         point3D_ids.push_back(point2D.point3D_id);
+        const double depth =
+            (cam_from_model * reconstruction.Point3D(point2D.point3D_id).xyz)
+                .z();
+        if (depth > 0 && point2D.xy.x() >= 0 && point2D.xy.y() >= 0 &&
+            point2D.xy.x() < view.camera->width &&
+            point2D.xy.y() < view.camera->height) {
+          // (cam_from_common maps to the camera in the model's units.)
+          double& cell_depth = view.min_depth[view.Cell(point2D.xy)];
+          cell_depth = cell_depth == 0 ? depth : std::min(cell_depth, depth);
+        }
       }
     }
     const size_t step =
@@ -52,11 +77,14 @@ std::vector<ImageView> ImageViews(const Reconstruction& reconstruction,
   return views;
 }
 
-// How many points of `other` `view` sees: in front, inside the image, under
-// rays at most `max_ray_angle` apart.
+// How many points of `other` `view` sees: in front, inside the image, not
+// behind the surfaces it sees there (nor where it sees none), under rays at
+// most `max_ray_angle` apart.
 int NumVisiblePoints(const ImageView& view,
                      const ImageView& other,
                      const double min_cos_ray_angle) {
+  // Depth slack before a point counts as hidden behind a seen surface.
+  constexpr double kMaxDepthRatio = 1.25;
   int num_visible = 0;
   for (const Eigen::Vector3d& point : other.points) {
     const Eigen::Vector3d point_in_cam = view.cam_from_common * point;
@@ -67,6 +95,11 @@ int NumVisiblePoints(const ImageView& view,
         view.camera->ImgFromCam(point_in_cam.hnormalized());
     if (xy.x() < 0 || xy.y() < 0 || xy.x() >= view.camera->width ||
         xy.y() >= view.camera->height) {
+      continue;
+    }
+    const double surface_depth = view.min_depth[view.Cell(xy)];
+    if (surface_depth == 0 ||
+        point_in_cam.z() > kMaxDepthRatio * surface_depth) {
       continue;
     }
     const Eigen::Vector3d ray = (point - view.center).normalized();

@@ -14,14 +14,23 @@
 // Here the question is asked per image pair. With both models in one frame,
 // a pair of images is predicted co-visible when each sees at least
 // `min_num_points` of the other's 3D points in front of it, inside its
-// image, under rays less than `max_ray_angle_deg` apart (features are not
-// matched across larger viewpoint changes). The check compares
+// image, not behind the surfaces it sees there itself (a coarse depth map
+// from its own points; where it sees nothing, nothing is predicted), under
+// rays less than `max_ray_angle_deg` apart (features are not matched
+// across larger viewpoint changes). The check compares
 //   cross rate    = verified / predicted co-visible pairs across the models,
 //   internal rate = verified / predicted co-visible pairs within each model,
 // so that the matcher's own habits (exhaustive, sequential, vocabulary tree)
 // cancel out: a true alignment predicts cross pairs that the matcher verified
 // about as often as it verified the predicted pairs inside the models, a
-// false one predicts many pairs it never verified. Only pairs whose camera
+// false one predicts many pairs it never verified. Measured: on the CSfM
+// paper's South Building (exhaustive matching) the true alignment of its two
+// communities had a cross rate of 77/209 against an internal rate of
+// 1462/1674 (ratio 0.42); generated landmarks with identical towers,
+// joined only by 40 pairs matched on the towers, had ratios of 0.003-0.02
+// for the alignments that stack one tower on the other. (Where every pair of
+// the duplicates was verified, the pairs alone cannot tell; that would need
+// the matches of each pair, point by point.) Only pairs whose camera
 // centres are closer than the longest verified pairs inside the models are
 // tested, so the cost follows the images near the border, and drift far
 // from it does not matter.
@@ -55,8 +64,8 @@ struct CovisibilityCheckOptions {
   int max_num_internal_pairs = 2000;
 
   // The alignment is rejected when the cross rate is below this fraction of
-  // the internal rate...
-  double min_rate_ratio = 0.25;
+  // the internal rate (see the measurements above)...
+  double min_rate_ratio = 0.1;
 
   // ...and at least this many cross pairs were predicted (fewer say
   // nothing either way).
