@@ -11,6 +11,7 @@
 
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include <boost/filesystem.hpp>
@@ -276,8 +277,10 @@ TEST_F(CommunityMapperEndToEnd, ProjectFileReproducesTheRun) {
 }
 
 // A scene without community structure: one cluster of cameras around one
-// landmark. The community mapper must find one community and give the
-// incremental mapper's result.
+// landmark. Modularity finds no structure (Qmax below 0.3), but the graph
+// holds its whole component: it is cut at its modularity peak into two
+// halves that two workers reconstruct, and the result is as good as the
+// incremental mapper's.
 TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
   const std::string test_dir = CreateTestDir();
   const Scene scene = GenerateScene(
@@ -292,9 +295,15 @@ TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
   const std::unordered_map<std::string, int> communities =
       ReadCommunities(JoinPaths(community_path, "communities.txt"));
   EXPECT_EQ(communities.size(), 50);
+  std::map<int, int> sizes;
   for (const auto& entry : communities) {
-    EXPECT_EQ(entry.second, 0);
+    ++sizes[entry.second];
   }
+  EXPECT_EQ(sizes.size(), 2);
+  EXPECT_NE(log.find("split (more than its share of the component)"),
+            std::string::npos)
+      << log;
+  EXPECT_FALSE(ExistsDir(JoinPaths(community_path, "1")));
 
   const std::string mapper_path = JoinPaths(test_dir, "mapper");
   CreateDirIfNotExists(mapper_path);
@@ -342,6 +351,79 @@ TEST(CommunityMapperComponents, EachComponentIsItsOwnModel) {
         << model1.Image(image_id).Name();
   }
   EXPECT_NE(log.find("in 2 model(s)"), std::string::npos) << log;
+}
+
+// Two landmarks with identical towers that no camera links: the only
+// cross-landmark pairs are 40 matched on the towers, which agree with the
+// transform that stacks one tower on the other. Folding them into one model
+// would be wrong: two models, each of one landmark.
+TEST(CommunityMapperRepeatedStructure, IdenticalTowersAreNotStacked) {
+  const std::string test_dir = CreateTestDir();
+  const Scene scene = GenerateScene(
+      JoinPaths(test_dir, "scene"),
+      "--num_clusters 2 --num_images_per_cluster 40 --num_images_per_link 0 "
+      "--num_repeated_structure_pairs 40 --keypoint_noise 0.7 "
+      "--outlier_match_ratio 0.03 --seed 2");
+  const std::string output_path = JoinPaths(test_dir, "sparse");
+  std::string log;
+  ASSERT_EQ(RunMapper("community_mapper", scene, output_path, &log), 0) << log;
+  // One view-graph component: only the check of the alignment keeps the
+  // landmarks apart.
+  EXPECT_NE(log.find("1 connected component(s)"), std::string::npos) << log;
+  EXPECT_NE(log.find("no transform explains the matches"), std::string::npos)
+      << log;
+
+  const std::map<std::string, int> clusters =
+      ReadClusters(JoinPaths(scene.path, "clusters.txt"));
+  int num_models = 0;
+  int num_registered = 0;
+  for (; ExistsDir(JoinPaths(output_path, std::to_string(num_models)));
+       ++num_models) {
+    const std::string model_path =
+        JoinPaths(output_path, std::to_string(num_models));
+    Reconstruction model;
+    model.Read(model_path);
+    std::set<int> model_clusters;
+    for (const image_t image_id : model.RegImageIds()) {
+      model_clusters.insert(clusters.at(model.Image(image_id).Name()));
+    }
+    EXPECT_EQ(model_clusters.size(), 1) << model_path;
+    num_registered += model.NumRegImages();
+    const ModelEvaluation evaluation =
+        Evaluate(model_path, scene.GroundTruthPath());
+    ASSERT_TRUE(evaluation.aligned);
+    EXPECT_LT(evaluation.median_position_error, 0.001 * evaluation.extent);
+  }
+  EXPECT_EQ(num_models, 2);
+  EXPECT_GE(num_registered, 78);
+}
+
+// The same identical towers on three landmarks joined in a loop by
+// walkways: every pair of landmark communities is linked by true matches
+// along its walkway and by more matches on the towers. The tower matches'
+// transform is rejected, the next one (the walkway's) is used, and the loop
+// closes into one accurate model.
+TEST(CommunityMapperRepeatedStructure, TrueLinksWinOverIdenticalTowers) {
+  const std::string test_dir = CreateTestDir();
+  const Scene scene = GenerateScene(
+      JoinPaths(test_dir, "scene"),
+      "--num_clusters 3 --num_images_per_cluster 40 --num_images_per_link 25 "
+      "--num_repeated_structure_pairs 40 --keypoint_noise 0.7 "
+      "--outlier_match_ratio 0.03 --num_false_pairs 10 --seed 2");
+  const std::string output_path = JoinPaths(test_dir, "sparse");
+  std::string log;
+  ASSERT_EQ(RunMapper("community_mapper", scene, output_path, &log), 0) << log;
+  EXPECT_NE(log.find("inliers rejected: co-visible pairs verified"),
+            std::string::npos)
+      << log;
+  EXPECT_FALSE(ExistsDir(JoinPaths(output_path, "1")));
+  const ModelEvaluation evaluation =
+      Evaluate(JoinPaths(output_path, "0"), scene.GroundTruthPath());
+  EXPECT_EQ(evaluation.num_registered_images,
+            evaluation.num_ground_truth_images);
+  ASSERT_TRUE(evaluation.aligned);
+  EXPECT_LT(evaluation.median_position_error, 0.0005 * evaluation.extent);
+  EXPECT_LT(evaluation.p90_position_error, 0.002 * evaluation.extent);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include "colmap_ext/util/atomic_output.h"
 #include "colmap_ext/util/log_tag.h"
 
+#include "colmap/math/math.h"
 #include "colmap/scene/database.h"
 #include "colmap/scene/database_cache.h"
 #include "colmap/util/misc.h"
@@ -18,6 +19,11 @@ namespace colmap {
 namespace {
 
 using Models = std::vector<std::shared_ptr<Reconstruction>>;
+
+// A small or doubtful community leaves the merge where at least this many,
+// and this fraction, of its cross pairs contradict the merge.
+constexpr int kMinNumContradictingPairs = 5;
+constexpr double kMinContradictingFraction = 0.25;
 
 // The images of every community: its own (by id) and those its
 // reconstruction uses, its own plus the overlap with its neighbours (by
@@ -202,6 +208,12 @@ CrossEdges GroupCrossEdges(const ViewGraph& view_graph,
 
 // The pairwise similarity of every pair of reconstructed communities joined
 // by view-graph edges, from the verified matches of those edges.
+// The 3D points (ids in the models of the smaller and of the larger
+// community) that the matches of one cross pair link, by image pair.
+using CrossPairPoints =
+    std::unordered_map<image_pair_t,
+                       std::vector<std::pair<point3D_t, point3D_t>>>;
+
 std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
     const CommunityMapperController::Options& options,
     const ViewGraph& view_graph,
@@ -209,6 +221,7 @@ std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
     const Models& models,
     std::vector<std::vector<std::pair<point3D_t, point3D_t>>>*
         inlier_point3D_ids,
+    CrossPairPoints* cross_pair_points,
     CommunityMapperController::Summary* summary) {
   summary->num_community_pairs = static_cast<int>(cross_edges.size());
 
@@ -256,6 +269,14 @@ std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
       cross_pair.matches =
           database.ReadTwoViewGeometry(image_pair.first, image_pair.second)
               .inlier_matches;
+      const PointCorrespondences pair_points =
+          FindPointCorrespondences(model1, model2, {cross_pair});
+      auto& points = (*cross_pair_points)[Database::ImagePairToPairId(
+          image_pair.first, image_pair.second)];
+      for (size_t i = 0; i < pair_points.Size(); ++i) {
+        points.emplace_back(pair_points.point3D_ids1[i],
+                            pair_points.point3D_ids2[i]);
+      }
       cross_pairs.push_back(std::move(cross_pair));
     }
     const PointCorrespondences correspondences =
@@ -325,6 +346,94 @@ std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
   return similarities;
 }
 
+// The cross pairs whose matches contradict the merge: between two
+// communities of one part, most of the 3D points a pair's matches link end
+// up apart (further than half the spread of all the points linked between
+// the two communities) once both models are in the part's frame. The bound
+// is loose on purpose: where a community drifts, true matches far from the
+// border land somewhat apart too, while matches of repeated structure link
+// points a whole facade or landmark apart. Such pairs (e.g. matches between two
+// identical facades) are left out of the merged model's refinement, which
+// would otherwise re-introduce them as tracks.
+struct ContradictingPairs {
+  std::unordered_set<image_pair_t> pairs;
+  // Per community: its cross pairs that contradict the merge, and all those
+  // that could be tested.
+  std::vector<int> num_contradicting;
+  std::vector<int> num_tested;
+};
+
+ContradictingPairs FindContradictingPairs(
+    const CrossEdges& cross_edges,
+    const CrossPairPoints& cross_pair_points,
+    const Models& models,
+    const SimilarityAveragingResult& averaging) {
+  // A pair says nothing with fewer linked points.
+  constexpr size_t kMinNumPoints = 5;
+  constexpr double kMaxDistanceInSpreads = 0.5;
+  ContradictingPairs contradicting;
+  contradicting.num_contradicting.assign(models.size(), 0);
+  contradicting.num_tested.assign(models.size(), 0);
+  for (const auto& pair_and_edges : cross_edges) {
+    const int community1 = pair_and_edges.first.first;
+    const int community2 = pair_and_edges.first.second;
+    if (!models[community1] || !models[community2] ||
+        averaging.part_of_community[community1] !=
+            averaging.part_of_community[community2]) {
+      continue;
+    }
+    const Sim3d& world_from_1 = averaging.world_from_community[community1];
+    const Sim3d& world_from_2 = averaging.world_from_community[community2];
+    // Per image pair: the distances of its linked points in the part's
+    // frame; the threshold is relative to the spread of all of them.
+    std::vector<std::pair<image_pair_t, std::vector<double>>> distances;
+    std::vector<Eigen::Vector3d> world_points;
+    for (const auto& image_pair : pair_and_edges.second) {
+      const image_pair_t pair_id =
+          Database::ImagePairToPairId(image_pair.first, image_pair.second);
+      const auto it = cross_pair_points.find(pair_id);
+      if (it == cross_pair_points.end()) {
+        continue;
+      }
+      distances.emplace_back(pair_id, std::vector<double>());
+      for (const auto& point_pair : it->second) {
+        const Eigen::Vector3d point1 =
+            world_from_1 * models[community1]->Point3D(point_pair.first).xyz;
+        const Eigen::Vector3d point2 =
+            world_from_2 * models[community2]->Point3D(point_pair.second).xyz;
+        distances.back().second.push_back((point1 - point2).norm());
+        world_points.push_back(point2);
+      }
+    }
+    if (world_points.empty()) {
+      continue;
+    }
+    const double max_distance =
+        kMaxDistanceInSpreads * MedianDistanceToMedian(world_points);
+    for (const auto& pair_and_distances : distances) {
+      const std::vector<double>& pair_distances = pair_and_distances.second;
+      if (pair_distances.size() < kMinNumPoints) {
+        continue;
+      }
+      const size_t num_apart =
+          std::count_if(pair_distances.begin(),
+                        pair_distances.end(),
+                        [max_distance](const double distance) {
+                          return !(distance <= max_distance);
+                        });
+      const bool contradicts = 2 * num_apart > pair_distances.size();
+      for (const int community : {community1, community2}) {
+        ++contradicting.num_tested[community];
+        contradicting.num_contradicting[community] += contradicts;
+      }
+      if (contradicts) {
+        contradicting.pairs.insert(pair_and_distances.first);
+      }
+    }
+  }
+  return contradicting;
+}
+
 // Joins the communities of one part (connected by kept similarities) into
 // one model in the global frame, merges their corresponding points and
 // refines the result on the part's images plus `extra_image_names` (images
@@ -340,6 +449,7 @@ std::shared_ptr<Reconstruction> MergePart(
         inlier_point3D_ids,
     const SimilarityAveragingResult& averaging,
     const std::unordered_set<std::string>& extra_image_names,
+    const std::unordered_set<image_pair_t>& contradicting_pairs,
     Models* models,
     double* refinement_seconds) {
   LOG(INFO) << "Merging communities" << [&] {
@@ -352,7 +462,11 @@ std::shared_ptr<Reconstruction> MergePart(
   std::vector<std::unordered_set<image_t>> owned_image_ids;
   std::unordered_set<std::string> part_image_names = extra_image_names;
   std::map<int, size_t> index_in_part;
+  std::unordered_map<image_t, int> community_of_image;
   for (const int c : part_communities) {
+    for (const image_t image_id : communities.own_image_ids[c]) {
+      community_of_image.emplace(image_id, c);
+    }
     index_in_part.emplace(c, part_models.size());
     part_models.push_back((*models)[c].get());
     world_from_community.push_back(averaging.world_from_community[c]);
@@ -406,7 +520,12 @@ std::shared_ptr<Reconstruction> MergePart(
         database,
         static_cast<size_t>(options.incremental_options.min_num_matches),
         options.incremental_options.ignore_watermarks,
-        part_image_names);
+        part_image_names,
+        [&contradicting_pairs](const image_t image_id1,
+                               const image_t image_id2) {
+          return contradicting_pairs.count(
+                     Database::ImagePairToPairId(image_id1, image_id2)) == 0;
+        });
   }
   Timer timer;
   timer.Start();
@@ -414,6 +533,7 @@ std::shared_ptr<Reconstruction> MergePart(
       RefineMergedModel(options.refinement,
                         options.incremental_options,
                         std::move(database_cache),
+                        community_of_image,
                         merged);
   *refinement_seconds += timer.ElapsedSeconds();
   LOG(INFO) << StringPrintf(
@@ -619,6 +739,7 @@ void CommunityMapperController::Run() {
   PrintHeading1("3. Global similarity averaging");
   phase_timer.Restart();
   std::vector<std::vector<std::pair<point3D_t, point3D_t>>> inlier_point3D_ids;
+  CrossPairPoints cross_pair_points;
   const CrossEdges cross_edges = GroupCrossEdges(view_graph, partition);
   const std::vector<RelativeSimilarity> similarities =
       EstimatePairwiseSimilarities(options_,
@@ -626,6 +747,7 @@ void CommunityMapperController::Run() {
                                    cross_edges,
                                    models,
                                    &inlier_point3D_ids,
+                                   &cross_pair_points,
                                    &summary_);
   summary_.community_judgements =
       JudgeCommunityModels(summary_.community_reports, options_.judgement);
@@ -642,8 +764,50 @@ void CommunityMapperController::Run() {
           summary_.community_judgements[c].reason.c_str());
     }
   }
-  const SimilarityAveragingResult averaging = AverageSimilarities(
-      averaged_communities, similarities, options_.similarity_averaging);
+  // The merge is verified by the matches between the merged communities:
+  // where many of a small or doubtful community's cross pairs link points
+  // that the merge puts far apart, its model is bent or broken inside; it
+  // leaves the merge, and the averaging is done again without it. What
+  // contradicts it otherwise (matches of repeated structure between sound
+  // communities) is left out of the refinement.
+  SimilarityAveragingResult averaging;
+  ContradictingPairs contradicting;
+  std::vector<int> registered;
+  for (const AveragedCommunity& community : averaged_communities) {
+    registered.push_back(community.num_images);
+  }
+  const double median_registered = Median(registered);
+  while (true) {
+    averaging = AverageSimilarities(
+        averaged_communities, similarities, options_.similarity_averaging);
+    contradicting = FindContradictingPairs(
+        cross_edges, cross_pair_points, models, averaging);
+    bool excluded = false;
+    for (size_t c = 0; c < models.size(); ++c) {
+      const int num_contradicting = contradicting.num_contradicting[c];
+      if (averaging.excluded[c] ||
+          num_contradicting < kMinNumContradictingPairs ||
+          num_contradicting <
+              kMinContradictingFraction * contradicting.num_tested[c] ||
+          !(averaged_communities[c].doubtful ||
+            averaged_communities[c].num_images <
+                options_.similarity_averaging.min_relative_size *
+                    median_registered)) {
+        continue;
+      }
+      LOG(WARNING) << StringPrintf(
+          "Community %d: %d of its %d cross pairs contradict the merge.",
+          static_cast<int>(c),
+          num_contradicting,
+          contradicting.num_tested[c]);
+      averaged_communities[c].excluded = true;
+      excluded = true;
+    }
+    if (!excluded) {
+      break;
+    }
+  }
+  cross_pair_points.clear();
   summary_.community_excluded = averaging.excluded;
   for (size_t e = 0; e < similarities.size(); ++e) {
     const auto& report = averaging.edges[e];
@@ -658,12 +822,20 @@ void CommunityMapperController::Run() {
         report.relative_translation_residual,
         report.kept ? "kept" : "dropped");
   }
+  const std::unordered_set<image_pair_t>& contradicting_pairs =
+      contradicting.pairs;
+  if (!contradicting_pairs.empty()) {
+    LOG(INFO) << StringPrintf(
+        "%d image pairs between merged communities have matches that "
+        "contradict the merge: the refinement leaves them out.",
+        static_cast<int>(contradicting_pairs.size()));
+  }
   for (size_t c = 0; c < models.size(); ++c) {
     if (averaging.excluded[c]) {
       LOG(WARNING) << StringPrintf(
-          "Community %d leaves the merge: its similarities disagree with the "
-          "other communities' and its model is %s. Its images are offered to "
-          "the merged model.",
+          "Community %d leaves the merge: its similarities or matches "
+          "disagree with the other communities' and its model is %s. Its "
+          "images are offered to the merged model.",
           static_cast<int>(c),
           summary_.community_judgements[c].doubtful ? "in doubt" : "small");
       models[c].reset();
@@ -743,6 +915,7 @@ void CommunityMapperController::Run() {
                                       inlier_point3D_ids,
                                       averaging,
                                       unmodelled_images_of_part[part],
+                                      contradicting_pairs,
                                       &models,
                                       &refinement_seconds));
   }

@@ -232,16 +232,31 @@ BundleAdjustmentOptions RobustOptions(BundleAdjustmentOptions options) {
   return options;
 }
 
-// Bundle adjusts all cameras of `reconstruction` on a copy that keeps, per
-// image, only the `alignment_max_points_per_image` points with the longest
+// Bundle adjusts all cameras of `reconstruction` on a copy that keeps the
+// points seen from two communities (or from an image of none) and, per
+// image, the `alignment_max_points_per_image` points with the longest
 // tracks (those that tie the most images together), intrinsics fixed, then
 // copies the poses back. The points of `reconstruction` are left as they
 // were.
 void AlignCameras(const MergedModelRefinementOptions& options,
                   const BundleAdjustmentOptions& ba_options,
+                  const std::unordered_map<image_t, int>& community_of_image,
                   Reconstruction* reconstruction) {
   Reconstruction reduced = *reconstruction;
   std::unordered_set<point3D_t> kept;
+  // Every point seen from two communities: these tie them together.
+  for (const auto& point3D : reduced.Points3D()) {
+    int community = -1;
+    for (const TrackElement& track_el : point3D.second.track.Elements()) {
+      const auto it = community_of_image.find(track_el.image_id);
+      const int other = it == community_of_image.end() ? -2 : it->second;
+      if (community != -1 && other != community) {
+        kept.insert(point3D.first);
+        break;
+      }
+      community = other;
+    }
+  }
   for (const image_t image_id : reduced.RegImageIds()) {
     std::vector<std::pair<size_t, point3D_t>> points;
     for (const Point2D& point2D : reduced.Image(image_id).Points2D()) {
@@ -293,6 +308,7 @@ MergedModelRefinementSummary RefineMergedModel(
     const MergedModelRefinementOptions& options,
     const IncrementalMapperOptions& mapper_options,
     std::shared_ptr<const DatabaseCache> database_cache,
+    const std::unordered_map<image_t, int>& community_of_image,
     std::shared_ptr<Reconstruction> reconstruction) {
   THROW_CHECK(options.Check());
   THROW_CHECK(mapper_options.Check());
@@ -335,16 +351,22 @@ MergedModelRefinementSummary RefineMergedModel(
   }
 
   // 1. Alignment: the joined communities are each right, but where they
-  // meet they are only as close as the averaged similarities put them. A
-  // bundle adjustment of all cameras on a reduced set of points (robust
-  // loss, if asked) pulls them together.
+  // meet they are only as close as the averaged similarities put them. Their
+  // tracks are completed and merged over the correspondence graph, so that
+  // they cross the borders, and a bundle adjustment of all cameras on a
+  // reduced set of points (robust loss, if asked) pulls them together.
   timer.Restart();
+  const size_t num_joined = mapper.CompleteAndMergeTracks(triangulation);
   AlignCameras(
       options,
       options.robust_first_adjustment ? RobustOptions(ba_options) : ba_options,
+      community_of_image,
       reconstruction.get());
-  LOG(INFO) << StringPrintf("Aligned the cameras (%.1fs)",
-                            timer.ElapsedSeconds());
+  LOG(INFO) << StringPrintf(
+      "Aligned the cameras on tracks completed and merged by %d observations "
+      "(%.1fs)",
+      static_cast<int>(num_joined),
+      timer.ElapsedSeconds());
 
   // 2. With the cameras in place, all points are triangulated anew over the
   // whole correspondence graph, as the incremental mapper builds its tracks
@@ -376,7 +398,10 @@ MergedModelRefinementSummary RefineMergedModel(
                        &mapper.ObservationManager(),
                        reconstruction.get());
     reconstruction->Normalize();
+    // Pairs the first triangulation left under-reconstructed (a border
+    // still a little apart) are triangulated again with the adjusted poses.
     const size_t num_changed = mapper.CompleteAndMergeTracks(triangulation) +
+                               mapper.Retriangulate(triangulation) +
                                mapper.FilterPoints(incremental);
     const double changed =
         num_observations == 0

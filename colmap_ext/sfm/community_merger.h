@@ -119,11 +119,14 @@ struct MergedModelRefinementSummary {
 // Completes, merges and refines the joined model with COLMAP's incremental
 // mapper machinery on the full database (see the top of this file). The
 // mapper, triangulation and global bundle adjustment options come from
-// `mapper_options` (the user's --Mapper.* flags).
+// `mapper_options` (the user's --Mapper.* flags). `community_of_image` tells
+// the community of each joined image (images it does not list, such as
+// those registered by the refinement, count as a community of their own).
 MergedModelRefinementSummary RefineMergedModel(
     const MergedModelRefinementOptions& options,
     const IncrementalMapperOptions& mapper_options,
     std::shared_ptr<const DatabaseCache> database_cache,
+    const std::unordered_map<image_t, int>& community_of_image,
     std::shared_ptr<Reconstruction> reconstruction);
 
 }  // namespace colmap

@@ -8,11 +8,10 @@
 #include <set>
 
 namespace colmap {
-namespace {
-
-// Median distance of the points to their coordinate-wise median.
-double RobustSpread(const std::vector<Eigen::Vector3d>& points) {
-  THROW_CHECK(!points.empty());
+double MedianDistanceToMedian(const std::vector<Eigen::Vector3d>& points) {
+  if (points.empty()) {
+    return 0.0;
+  }
   Eigen::Vector3d median;
   std::vector<double> values(points.size());
   for (int d = 0; d < 3; ++d) {
@@ -30,8 +29,6 @@ double RobustSpread(const std::vector<Eigen::Vector3d>& points) {
       values.begin(), values.begin() + values.size() / 2, values.end());
   return values[values.size() / 2];
 }
-
-}  // namespace
 
 PointCorrespondences FindPointCorrespondences(
     const Reconstruction& reconstruction1,
@@ -92,7 +89,7 @@ PairwiseSimilarity EstimatePairwiseSimilarity(
     return result;
   }
 
-  const double spread = RobustSpread(correspondences.points2);
+  const double spread = MedianDistanceToMedian(correspondences.points2);
   if (spread <= 0) {
     return result;
   }

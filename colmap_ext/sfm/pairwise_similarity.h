@@ -32,6 +32,10 @@
 
 namespace colmap {
 
+// Median distance of the points to their coordinate-wise median: a spread
+// that a minority of outliers does not inflate (0 for no points).
+double MedianDistanceToMedian(const std::vector<Eigen::Vector3d>& points);
+
 // The verified matches of one view-graph edge between two communities.
 struct CrossPairMatches {
   // Image of the first and of the second community.

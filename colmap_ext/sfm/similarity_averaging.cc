@@ -1,5 +1,6 @@
 #include "colmap_ext/sfm/similarity_averaging.h"
 
+#include "colmap_ext/sfm/pairwise_similarity.h"
 #include "colmap_ext/util/union_find.h"
 
 #include "colmap/math/math.h"
@@ -90,29 +91,6 @@ bool SolveDifferenceSystem(const std::vector<int>& nodes,
   return true;
 }
 
-// Median distance of the points to their coordinate-wise median.
-double Spread(const std::vector<Eigen::Vector3d>& points) {
-  if (points.empty()) {
-    return 0.0;
-  }
-  std::vector<double> values(points.size());
-  Eigen::Vector3d median;
-  for (int d = 0; d < 3; ++d) {
-    for (size_t k = 0; k < points.size(); ++k) {
-      values[k] = points[k](d);
-    }
-    std::nth_element(
-        values.begin(), values.begin() + values.size() / 2, values.end());
-    median(d) = values[values.size() / 2];
-  }
-  for (size_t k = 0; k < points.size(); ++k) {
-    values[k] = (points[k] - median).norm();
-  }
-  std::nth_element(
-      values.begin(), values.begin() + values.size() / 2, values.end());
-  return values[values.size() / 2];
-}
-
 // The translation measurement T_i - T_j of an edge, given scales and
 // rotations, and the spread of its correspondences in the world frame.
 void TranslationMeasurement(const RelativeSimilarity& edge,
@@ -145,7 +123,7 @@ void TranslationMeasurement(const RelativeSimilarity& edge,
                      differences[d].end());
     (*measurement)(d) = differences[d][differences[d].size() / 2];
   }
-  *spread = Spread(world_points2);
+  *spread = MedianDistanceToMedian(world_points2);
 }
 
 // Averages the similarities of one connected part in place.
@@ -339,8 +317,13 @@ SimilarityAveragingResult AverageSimilarities(
   result.world_from_community.assign(num_communities, Sim3d());
   result.edges.resize(relative_similarities.size());
   result.excluded.assign(num_communities, false);
-  for (auto& edge_report : result.edges) {
-    edge_report.kept = true;
+  for (int c = 0; c < num_communities; ++c) {
+    result.excluded[c] = communities[c].excluded;
+  }
+  for (size_t e = 0; e < relative_similarities.size(); ++e) {
+    result.edges[e].kept =
+        !result.excluded[relative_similarities[e].community1] &&
+        !result.excluded[relative_similarities[e].community2];
   }
 
   std::vector<std::vector<int>> parts;

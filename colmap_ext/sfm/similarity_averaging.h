@@ -68,6 +68,8 @@ struct AveragedCommunity {
   int num_images = 0;
   // Whether its own model is in doubt (see community_judgement.h).
   bool doubtful = false;
+  // Whether it is left out from the start (its edges are not used).
+  bool excluded = false;
 };
 
 struct SimilarityAveragingOptions {
