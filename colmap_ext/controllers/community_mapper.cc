@@ -14,16 +14,12 @@
 #include <algorithm>
 #include <map>
 #include <mutex>
+#include <set>
 
 namespace colmap {
 namespace {
 
 using Models = std::vector<std::shared_ptr<Reconstruction>>;
-
-// A small or doubtful community leaves the merge where at least this many,
-// and this fraction, of its cross pairs contradict the merge.
-constexpr int kMinNumContradictingPairs = 5;
-constexpr double kMinContradictingFraction = 0.25;
 
 // The images of every community: its own (by id) and those its
 // reconstruction uses, its own plus the overlap with its neighbours (by
@@ -54,6 +50,35 @@ CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
     }
   }
   return groups;
+}
+
+// IncrementalMapperController::Run, with the database loaded under
+// `database_mutex`: COLMAP's Database sets no busy timeout, so two workers
+// opening it at the same moment fail with "database is locked" and their
+// communities would be lost.
+void RunIncrementalMapper(IncrementalMapperController* mapper,
+                          std::mutex* database_mutex) {
+  {
+    std::lock_guard<std::mutex> lock(*database_mutex);
+    if (!mapper->LoadDatabase()) {
+      return;
+    }
+  }
+  // As upstream: where no initial pair is found, relax the constraints.
+  IncrementalMapper::Options init_options = mapper->Options()->Mapper();
+  mapper->Reconstruct(init_options);
+  constexpr int kNumInitRelaxations = 2;
+  for (int i = 0;
+       i < kNumInitRelaxations && mapper->ReconstructionManager()->Size() == 0;
+       ++i) {
+    init_options.init_min_num_inliers /= 2;
+    mapper->Reconstruct(init_options);
+    if (mapper->ReconstructionManager()->Size() > 0) {
+      break;
+    }
+    init_options.init_min_tri_angle /= 2;
+    mapper->Reconstruct(init_options);
+  }
 }
 
 // Reconstructs every community with COLMAP's incremental mapper, several at
@@ -92,6 +117,7 @@ Models ReconstructCommunities(const CommunityMapperController::Options& options,
         static_cast<int>(communities.image_names[c].size());
   }
   std::mutex summary_mutex;
+  std::mutex database_mutex;
 
   auto reconstruct = [&](const int community) {
     ScopedLogTag log_tag(StringPrintf("community %d", community));
@@ -111,7 +137,7 @@ Models ReconstructCommunities(const CommunityMapperController::Options& options,
                                          options.image_path,
                                          options.database_path,
                                          reconstruction_manager);
-      mapper.Run();
+      RunIncrementalMapper(&mapper, &database_mutex);
 
       std::shared_ptr<Reconstruction> largest;
       for (size_t i = 0; i < reconstruction_manager->Size(); ++i) {
@@ -222,6 +248,7 @@ std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
     std::vector<std::vector<std::pair<point3D_t, point3D_t>>>*
         inlier_point3D_ids,
     CrossPairPoints* cross_pair_points,
+    std::unordered_set<image_pair_t>* false_pairs,
     CommunityMapperController::Summary* summary) {
   summary->num_community_pairs = static_cast<int>(cross_edges.size());
 
@@ -284,6 +311,7 @@ std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
     // Every transform is checked against the matches it implies; one that
     // contradicts them gives way to the next best.
     CovisibilityCheck covisibility;
+    std::set<std::pair<point3D_t, point3D_t>> rejected_inliers;
     std::string rejected_checks;
     int num_rejected = 0;
     const PairwiseSimilarity similarity = EstimatePairwiseSimilarity(
@@ -296,6 +324,8 @@ std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
                                            is_verified_pair,
                                            options.covisibility_check);
           if (!covisibility.consistent) {
+            rejected_inliers.insert(candidate.inlier_point3D_ids.begin(),
+                                    candidate.inlier_point3D_ids.end());
             rejected_checks += StringPrintf(
                 " [%d inliers rejected: co-visible pairs verified %d of %d "
                 "across, %d of %d inside]",
@@ -329,6 +359,25 @@ std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
                   .c_str()
         : num_rejected > 0 ? "no transform explains the matches, not used"
                            : "too little support, not used");
+    // The cross pairs whose matches mostly support a rejected transform
+    // (matches between two identical facades) are false: the merged
+    // model's refinement leaves them out, where it would re-introduce them
+    // as tracks (on generated landmarks with identical towers they took the
+    // median camera error from 0.03 to 0.19 m).
+    if (!rejected_inliers.empty()) {
+      for (const auto& image_pair : pair_and_edges.second) {
+        const image_pair_t pair_id =
+            Database::ImagePairToPairId(image_pair.first, image_pair.second);
+        const auto& points = cross_pair_points->at(pair_id);
+        size_t num_rejected_points = 0;
+        for (const auto& point_pair : points) {
+          num_rejected_points += rejected_inliers.count(point_pair);
+        }
+        if (2 * num_rejected_points > points.size()) {
+          false_pairs->insert(pair_id);
+        }
+      }
+    }
     if (!similarity.success) {
       continue;
     }
@@ -346,94 +395,6 @@ std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
   return similarities;
 }
 
-// The cross pairs whose matches contradict the merge: between two
-// communities of one part, most of the 3D points a pair's matches link end
-// up apart (further than half the spread of all the points linked between
-// the two communities) once both models are in the part's frame. The bound
-// is loose on purpose: where a community drifts, true matches far from the
-// border land somewhat apart too, while matches of repeated structure link
-// points a whole facade or landmark apart. Such pairs (e.g. matches between two
-// identical facades) are left out of the merged model's refinement, which
-// would otherwise re-introduce them as tracks.
-struct ContradictingPairs {
-  std::unordered_set<image_pair_t> pairs;
-  // Per community: its cross pairs that contradict the merge, and all those
-  // that could be tested.
-  std::vector<int> num_contradicting;
-  std::vector<int> num_tested;
-};
-
-ContradictingPairs FindContradictingPairs(
-    const CrossEdges& cross_edges,
-    const CrossPairPoints& cross_pair_points,
-    const Models& models,
-    const SimilarityAveragingResult& averaging) {
-  // A pair says nothing with fewer linked points.
-  constexpr size_t kMinNumPoints = 5;
-  constexpr double kMaxDistanceInSpreads = 0.5;
-  ContradictingPairs contradicting;
-  contradicting.num_contradicting.assign(models.size(), 0);
-  contradicting.num_tested.assign(models.size(), 0);
-  for (const auto& pair_and_edges : cross_edges) {
-    const int community1 = pair_and_edges.first.first;
-    const int community2 = pair_and_edges.first.second;
-    if (!models[community1] || !models[community2] ||
-        averaging.part_of_community[community1] !=
-            averaging.part_of_community[community2]) {
-      continue;
-    }
-    const Sim3d& world_from_1 = averaging.world_from_community[community1];
-    const Sim3d& world_from_2 = averaging.world_from_community[community2];
-    // Per image pair: the distances of its linked points in the part's
-    // frame; the threshold is relative to the spread of all of them.
-    std::vector<std::pair<image_pair_t, std::vector<double>>> distances;
-    std::vector<Eigen::Vector3d> world_points;
-    for (const auto& image_pair : pair_and_edges.second) {
-      const image_pair_t pair_id =
-          Database::ImagePairToPairId(image_pair.first, image_pair.second);
-      const auto it = cross_pair_points.find(pair_id);
-      if (it == cross_pair_points.end()) {
-        continue;
-      }
-      distances.emplace_back(pair_id, std::vector<double>());
-      for (const auto& point_pair : it->second) {
-        const Eigen::Vector3d point1 =
-            world_from_1 * models[community1]->Point3D(point_pair.first).xyz;
-        const Eigen::Vector3d point2 =
-            world_from_2 * models[community2]->Point3D(point_pair.second).xyz;
-        distances.back().second.push_back((point1 - point2).norm());
-        world_points.push_back(point2);
-      }
-    }
-    if (world_points.empty()) {
-      continue;
-    }
-    const double max_distance =
-        kMaxDistanceInSpreads * MedianDistanceToMedian(world_points);
-    for (const auto& pair_and_distances : distances) {
-      const std::vector<double>& pair_distances = pair_and_distances.second;
-      if (pair_distances.size() < kMinNumPoints) {
-        continue;
-      }
-      const size_t num_apart =
-          std::count_if(pair_distances.begin(),
-                        pair_distances.end(),
-                        [max_distance](const double distance) {
-                          return !(distance <= max_distance);
-                        });
-      const bool contradicts = 2 * num_apart > pair_distances.size();
-      for (const int community : {community1, community2}) {
-        ++contradicting.num_tested[community];
-        contradicting.num_contradicting[community] += contradicts;
-      }
-      if (contradicts) {
-        contradicting.pairs.insert(pair_and_distances.first);
-      }
-    }
-  }
-  return contradicting;
-}
-
 // Joins the communities of one part (connected by kept similarities) into
 // one model in the global frame, merges their corresponding points and
 // refines the result on the part's images plus `extra_image_names` (images
@@ -449,7 +410,7 @@ std::shared_ptr<Reconstruction> MergePart(
         inlier_point3D_ids,
     const SimilarityAveragingResult& averaging,
     const std::unordered_set<std::string>& extra_image_names,
-    const std::unordered_set<image_pair_t>& contradicting_pairs,
+    const std::unordered_set<image_pair_t>& false_pairs,
     Models* models,
     double* refinement_seconds) {
   LOG(INFO) << "Merging communities" << [&] {
@@ -473,6 +434,33 @@ std::shared_ptr<Reconstruction> MergePart(
     owned_image_ids.push_back(communities.own_image_ids[c]);
     for (const image_t image_id : communities.own_image_ids[c]) {
       part_image_names.insert(communities.name_of_image.at(image_id));
+    }
+  }
+  std::shared_ptr<DatabaseCache> database_cache;
+  {
+    const Database database(options.database_path);
+    database_cache = DatabaseCache::Create(
+        database,
+        static_cast<size_t>(options.incremental_options.min_num_matches),
+        options.incremental_options.ignore_watermarks,
+        part_image_names,
+        [&false_pairs](const image_t image_id1, const image_t image_id2) {
+          return false_pairs.count(
+                     Database::ImagePairToPairId(image_id1, image_id2)) == 0;
+        });
+  }
+  // An image left without any pair (all contradicting the merge) cannot be
+  // refined: it stays out.
+  for (std::unordered_set<image_t>& image_ids : owned_image_ids) {
+    for (auto it = image_ids.begin(); it != image_ids.end();) {
+      if (database_cache->ExistsImage(*it)) {
+        ++it;
+      } else {
+        LOG(WARNING) << "Image " << communities.name_of_image.at(*it)
+                     << " has no image pair left in the merged model; it is "
+                        "left out.";
+        it = image_ids.erase(it);
+      }
     }
   }
   auto merged = std::make_shared<Reconstruction>();
@@ -513,20 +501,6 @@ std::shared_ptr<Reconstruction> MergePart(
       static_cast<int>(merged->NumPoints3D()),
       static_cast<int>(num_merged_points));
 
-  std::shared_ptr<DatabaseCache> database_cache;
-  {
-    const Database database(options.database_path);
-    database_cache = DatabaseCache::Create(
-        database,
-        static_cast<size_t>(options.incremental_options.min_num_matches),
-        options.incremental_options.ignore_watermarks,
-        part_image_names,
-        [&contradicting_pairs](const image_t image_id1,
-                               const image_t image_id2) {
-          return contradicting_pairs.count(
-                     Database::ImagePairToPairId(image_id1, image_id2)) == 0;
-        });
-  }
   Timer timer;
   timer.Start();
   const MergedModelRefinementSummary refinement =
@@ -739,6 +713,7 @@ void CommunityMapperController::Run() {
   PrintHeading1("3. Global similarity averaging");
   phase_timer.Restart();
   std::vector<std::vector<std::pair<point3D_t, point3D_t>>> inlier_point3D_ids;
+  std::unordered_set<image_pair_t> false_pairs;
   CrossPairPoints cross_pair_points;
   const CrossEdges cross_edges = GroupCrossEdges(view_graph, partition);
   const std::vector<RelativeSimilarity> similarities =
@@ -748,6 +723,7 @@ void CommunityMapperController::Run() {
                                    models,
                                    &inlier_point3D_ids,
                                    &cross_pair_points,
+                                   &false_pairs,
                                    &summary_);
   summary_.community_judgements =
       JudgeCommunityModels(summary_.community_reports, options_.judgement);
@@ -757,57 +733,22 @@ void CommunityMapperController::Run() {
         summary_.community_reports[c].num_registered;
     averaged_communities[c].doubtful =
         summary_.community_judgements[c].doubtful;
-    if (summary_.community_judgements[c].doubtful) {
-      LOG(WARNING) << StringPrintf(
-          "Community %d is in doubt (%s): it takes part with little weight.",
-          static_cast<int>(c),
-          summary_.community_judgements[c].reason.c_str());
-    }
+    averaged_communities[c].excluded = summary_.community_judgements[c].broken;
   }
-  // The merge is verified by the matches between the merged communities:
-  // where many of a small or doubtful community's cross pairs link points
-  // that the merge puts far apart, its model is bent or broken inside; it
-  // leaves the merge, and the averaging is done again without it. What
-  // contradicts it otherwise (matches of repeated structure between sound
-  // communities) is left out of the refinement.
-  SimilarityAveragingResult averaging;
-  ContradictingPairs contradicting;
-  std::vector<int> registered;
-  for (const AveragedCommunity& community : averaged_communities) {
-    registered.push_back(community.num_images);
-  }
-  const double median_registered = Median(registered);
-  while (true) {
-    averaging = AverageSimilarities(
-        averaged_communities, similarities, options_.similarity_averaging);
-    contradicting = FindContradictingPairs(
-        cross_edges, cross_pair_points, models, averaging);
-    bool excluded = false;
-    for (size_t c = 0; c < models.size(); ++c) {
-      const int num_contradicting = contradicting.num_contradicting[c];
-      if (averaging.excluded[c] ||
-          num_contradicting < kMinNumContradictingPairs ||
-          num_contradicting <
-              kMinContradictingFraction * contradicting.num_tested[c] ||
-          !(averaged_communities[c].doubtful ||
-            averaged_communities[c].num_images <
-                options_.similarity_averaging.min_relative_size *
-                    median_registered)) {
-        continue;
-      }
-      LOG(WARNING) << StringPrintf(
-          "Community %d: %d of its %d cross pairs contradict the merge.",
-          static_cast<int>(c),
-          num_contradicting,
-          contradicting.num_tested[c]);
-      averaged_communities[c].excluded = true;
-      excluded = true;
-    }
-    if (!excluded) {
-      break;
-    }
-  }
+  const SimilarityAveragingResult averaging = AverageSimilarities(
+      averaged_communities, similarities, options_.similarity_averaging);
   cross_pair_points.clear();
+  for (size_t c = 0; c < models.size(); ++c) {
+    const CommunityJudgement& judgement = summary_.community_judgements[c];
+    if (judgement.broken || judgement.doubtful) {
+      LOG(WARNING) << StringPrintf(
+          "Community %d is %s (%s)%s",
+          static_cast<int>(c),
+          judgement.broken ? "broken" : "in doubt",
+          judgement.reason.c_str(),
+          judgement.broken ? "" : ": it takes part with little weight.");
+    }
+  }
   summary_.community_excluded = averaging.excluded;
   for (size_t e = 0; e < similarities.size(); ++e) {
     const auto& report = averaging.edges[e];
@@ -822,22 +763,24 @@ void CommunityMapperController::Run() {
         report.relative_translation_residual,
         report.kept ? "kept" : "dropped");
   }
-  const std::unordered_set<image_pair_t>& contradicting_pairs =
-      contradicting.pairs;
-  if (!contradicting_pairs.empty()) {
+  if (!false_pairs.empty()) {
     LOG(INFO) << StringPrintf(
-        "%d image pairs between merged communities have matches that "
-        "contradict the merge: the refinement leaves them out.",
-        static_cast<int>(contradicting_pairs.size()));
+        "%d image pairs between communities support only rejected "
+        "transforms: the refinement leaves them out.",
+        static_cast<int>(false_pairs.size()));
   }
   for (size_t c = 0; c < models.size(); ++c) {
     if (averaging.excluded[c]) {
       LOG(WARNING) << StringPrintf(
-          "Community %d leaves the merge: its similarities or matches "
-          "disagree with the other communities' and its model is %s. Its "
-          "images are offered to the merged model.",
+          "Community %d leaves the merge: %s. Its images are offered to the "
+          "merged model.",
           static_cast<int>(c),
-          summary_.community_judgements[c].doubtful ? "in doubt" : "small");
+          summary_.community_judgements[c].broken ? "its model is broken"
+          : summary_.community_judgements[c].doubtful
+              ? "its similarities disagree with the other communities' "
+                "and its model is in doubt"
+              : "its similarities disagree with the other communities' "
+                "and it is small");
       models[c].reset();
     }
   }
@@ -908,16 +851,39 @@ void CommunityMapperController::Run() {
       continue;
     }
 
-    merged_models.push_back(MergePart(options_,
-                                      part_communities,
-                                      communities,
-                                      similarities,
-                                      inlier_point3D_ids,
-                                      averaging,
-                                      unmodelled_images_of_part[part],
-                                      contradicting_pairs,
-                                      &models,
-                                      &refinement_seconds));
+    try {
+      merged_models.push_back(MergePart(options_,
+                                        part_communities,
+                                        communities,
+                                        similarities,
+                                        inlier_point3D_ids,
+                                        averaging,
+                                        unmodelled_images_of_part[part],
+                                        false_pairs,
+                                        &models,
+                                        &refinement_seconds));
+    } catch (const std::exception& error) {
+      // Nothing is lost: the part's communities, as written when they were
+      // done, become models of their own.
+      LOG(ERROR) << "Merging communities failed: " << error.what()
+                 << "; each of them is written as a model of its own.";
+      for (const int c : part_communities) {
+        const std::string path =
+            options_.output_path.empty()
+                ? ""
+                : JoinPaths(
+                      options_.output_path, "communities", std::to_string(c));
+        if (path.empty() || !ExistsDir(path)) {
+          continue;
+        }
+        auto model = std::make_shared<Reconstruction>();
+        model->Read(path);
+        model = RestrictToImages(communities.own_image_ids[c], model);
+        if (model->NumRegImages() >= 2) {
+          merged_models.push_back(std::move(model));
+        }
+      }
+    }
   }
 
   std::stable_sort(merged_models.begin(),

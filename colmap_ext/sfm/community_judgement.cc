@@ -37,29 +37,27 @@ std::vector<CommunityJudgement> JudgeCommunityModels(
     if (report.num_registered == 0) {
       continue;
     }
-    std::vector<std::string> reasons;
+    CommunityJudgement& judgement = judgements[c];
     if (report.num_registered <
         options.min_registered_fraction * median_fraction * report.num_images) {
-      reasons.push_back(StringPrintf(
+      judgement.doubtful = true;
+      judgement.reason = StringPrintf(
           "registered %d of %d images%s",
           report.num_registered,
           report.num_images,
           report.num_models > 1
               ? StringPrintf(" in the largest of %d models", report.num_models)
                     .c_str()
-              : ""));
+              : "");
     }
     if (report.mean_reprojection_error >
         options.max_relative_reprojection_error * median_error) {
-      reasons.push_back(
+      judgement.broken = true;
+      judgement.reason +=
+          (judgement.reason.empty() ? "" : "; ") +
           StringPrintf("mean reprojection error %.2f px, %.1fx the median",
                        report.mean_reprojection_error,
-                       report.mean_reprojection_error / median_error));
-    }
-    judgements[c].doubtful = !reasons.empty();
-    for (const std::string& reason : reasons) {
-      judgements[c].reason +=
-          (judgements[c].reason.empty() ? "" : "; ") + reason;
+                       report.mean_reprojection_error / median_error);
     }
   }
   return judgements;

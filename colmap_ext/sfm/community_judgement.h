@@ -7,16 +7,24 @@
 // similarity per community cannot align such a model to all its neighbours.
 // The mapper's own result tells the likely cases, relative to the other
 // communities of the same run (the same images, matcher and options):
-//   - it registered a smaller fraction of the images it was given (in its
-//     largest model, if it broke into several) than `min_registered_fraction`
-//     times the median fraction of all communities (where every community
-//     leaves many images out, as along a walkway of flat walls, that is the
-//     data, not one community's failure), or
-//   - its mean reprojection error exceeds `max_relative_reprojection_error`
-//     times the median of the communities' means.
-// A doubtful community is not dropped for that alone: the similarity
-// averaging gives it little weight and drops it where its similarities
-// disagree with the others (similarity_averaging.h).
+//   - doubtful: it registered a smaller fraction of the images it was given
+//     (in its largest model, if it broke into several) than
+//     `min_registered_fraction` times the median fraction of all
+//     communities (where every community leaves many images out, as along a
+//     walkway of flat walls, that is the data, not one community's
+//     failure). A doubtful community takes part with little weight; the
+//     similarity averaging drops it where its similarities disagree with
+//     the others (similarity_averaging.h).
+//   - broken: its mean reprojection error exceeds
+//     `max_relative_reprojection_error` times the median of the
+//     communities' means. The same data fitted so much worse means wrong
+//     matches or a wrong geometry inside the model: it leaves the merge,
+//     and the merged model registers its images. Measured on a generated
+//     courtyard loop: a walkway community along a flat wall broke into
+//     three models, the largest with a mean error of 1.29 px against the
+//     others' 0.76 (camera errors of metres against millimetres); kept in
+//     the merge, it left the merged model's 90th-percentile camera error at
+//     10-40 m, left out 0.04 m.
 
 #pragma once
 
@@ -47,7 +55,8 @@ struct CommunityJudgementOptions {
 
 struct CommunityJudgement {
   bool doubtful = false;
-  // Why, for the log (empty if not doubtful).
+  bool broken = false;
+  // Why, for the log (empty if neither).
   std::string reason;
 };
 

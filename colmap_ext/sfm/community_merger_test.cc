@@ -1,6 +1,10 @@
 #include "colmap_ext/sfm/community_merger.h"
 
 #include "colmap_ext/scene/synthetic_scene.h"
+#include "colmap_ext/util/testing.h"
+
+#include "colmap/scene/database_cache.h"
+#include "colmap/util/misc.h"
 
 #include <set>
 
@@ -182,6 +186,54 @@ TEST_F(JoinReconstructionsTest, RestrictToImagesDropsBorrowedImages) {
   auto model2 = std::make_shared<Reconstruction>(
       CommunityModel(scene_.ground_truth, images2_, community_from_world_[1]));
   EXPECT_EQ(RestrictToImages(owned2_, model2), model2);
+}
+
+// The refinement leaves pairs out of the merged model's correspondence
+// graph (patches/0002): exactly those, and the others keep all their
+// matches.
+TEST(DatabaseCache, ImagePairFilterLeavesOutExactlyThePairsRefused) {
+  const std::string test_dir = CreateTestDir();
+  SyntheticSceneOptions options;
+  options.num_clusters = 2;
+  options.num_images_per_cluster = 10;
+  options.num_images_per_link = 6;
+  options.num_points_per_cluster = 600;
+  options.num_points_per_link = 300;
+  options.seed = 5;
+  Database database(JoinPaths(test_dir, "database.db"));
+  SyntheticScene scene;
+  SynthesizeCommunityScene(options, &scene, &database);
+
+  std::vector<image_pair_t> pair_ids;
+  std::vector<TwoViewGeometry> two_view_geometries;
+  database.ReadTwoViewGeometries(&pair_ids, &two_view_geometries);
+  ASSERT_GE(pair_ids.size(), 10);
+  // Refuse every third pair.
+  std::set<image_pair_t> refused;
+  for (size_t i = 0; i < pair_ids.size(); i += 3) {
+    refused.insert(pair_ids[i]);
+  }
+  const auto cache = DatabaseCache::Create(
+      database,
+      /*min_num_matches=*/1,
+      /*ignore_watermarks=*/false,
+      /*image_names=*/{},
+      [&refused](const image_t image_id1, const image_t image_id2) {
+        return refused.count(
+                   Database::ImagePairToPairId(image_id1, image_id2)) == 0;
+      });
+  const auto& graph = *cache->CorrespondenceGraph();
+  for (size_t i = 0; i < pair_ids.size(); ++i) {
+    image_t image_id1;
+    image_t image_id2;
+    std::tie(image_id1, image_id2) = Database::PairIdToImagePair(pair_ids[i]);
+    const size_t expected = refused.count(pair_ids[i]) > 0
+                                ? 0
+                                : two_view_geometries[i].inlier_matches.size();
+    EXPECT_EQ(graph.NumCorrespondencesBetweenImages(image_id1, image_id2),
+              expected)
+        << i;
+  }
 }
 
 }  // namespace
