@@ -20,6 +20,7 @@ PACKAGES=(
   libgtest-dev libigraph-dev
   python3 python3-numpy python3-matplotlib python3-pil time
   xvfb xauth libgl1-mesa-dri imagemagick
+  slurmctld slurmd slurm-client munge
 )
 
 SRC_LIST=/etc/apt/sources.list.d/colmap-community-src.sources

@@ -1,10 +1,13 @@
 #include "colmap_ext/controllers/community_mapper.h"
 
 #include "colmap_ext/scene/community_io.h"
+#include "colmap_ext/sfm/community_alignment.h"
+#include "colmap_ext/sfm/community_reconstruction.h"
 #include "colmap_ext/util/atomic_output.h"
 #include "colmap_ext/util/log_tag.h"
 
 #include "colmap/math/math.h"
+#include "colmap/math/random.h"
 #include "colmap/scene/database.h"
 #include "colmap/scene/database_cache.h"
 #include "colmap/util/misc.h"
@@ -13,7 +16,6 @@
 
 #include <algorithm>
 #include <map>
-#include <mutex>
 #include <set>
 
 namespace colmap {
@@ -21,378 +23,43 @@ namespace {
 
 using Models = std::vector<std::shared_ptr<Reconstruction>>;
 
-// The images of every community: its own (by id) and those its
-// reconstruction uses, its own plus the overlap with its neighbours (by
-// name).
+// The images of every community, by the plan: its own (by id) and those its
+// reconstruction uses, its own and borrowed (by name).
 struct CommunityImages {
   std::vector<std::unordered_set<image_t>> own_image_ids;
   std::vector<std::unordered_set<std::string>> image_names;
   std::unordered_map<image_t, std::string> name_of_image;
+  std::unordered_map<image_t, int> community_of_image;
 };
 
 CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
-                                       const WeightedGraph& graph,
-                                       const CommunityPartition& partition,
-                                       const int image_overlap) {
-  CommunityImages groups;
-  groups.own_image_ids.resize(partition.NumCommunities());
-  groups.image_names.resize(partition.NumCommunities());
+                                       const CommunityPlan& plan) {
+  std::unordered_map<std::string, image_t> image_of_name;
   for (size_t vertex = 0; vertex < view_graph.NumVertices(); ++vertex) {
-    const image_t image_id = view_graph.ImageIds()[vertex];
-    groups.own_image_ids[partition.membership[vertex]].insert(image_id);
-    groups.name_of_image.emplace(image_id, view_graph.ImageNames()[vertex]);
+    image_of_name.emplace(view_graph.ImageNames()[vertex],
+                          view_graph.ImageIds()[vertex]);
   }
-  const std::vector<std::vector<int>> extended =
-      ExtendCommunities(graph, partition, image_overlap);
-  for (size_t community = 0; community < extended.size(); ++community) {
-    for (const int vertex : extended[community]) {
-      groups.image_names[community].insert(view_graph.ImageNames()[vertex]);
+  CommunityImages groups;
+  groups.own_image_ids.resize(plan.NumCommunities());
+  groups.image_names.resize(plan.NumCommunities());
+  for (int c = 0; c < plan.NumCommunities(); ++c) {
+    for (const std::string& name : plan.communities[c].own_image_names) {
+      const image_t image_id = image_of_name.at(name);
+      groups.own_image_ids[c].insert(image_id);
+      groups.name_of_image.emplace(image_id, name);
+      groups.community_of_image.emplace(image_id, c);
+      groups.image_names[c].insert(name);
+    }
+    for (const std::string& name : plan.communities[c].borrowed_image_names) {
+      groups.image_names[c].insert(name);
     }
   }
   return groups;
 }
 
-// IncrementalMapperController::Run, with the database loaded under
-// `database_mutex`: COLMAP's Database sets no busy timeout, so two workers
-// opening it at the same moment fail with "database is locked" and their
-// communities would be lost.
-void RunIncrementalMapper(IncrementalMapperController* mapper,
-                          std::mutex* database_mutex) {
-  {
-    std::lock_guard<std::mutex> lock(*database_mutex);
-    if (!mapper->LoadDatabase()) {
-      return;
-    }
-  }
-  // As upstream: where no initial pair is found, relax the constraints.
-  IncrementalMapper::Options init_options = mapper->Options()->Mapper();
-  mapper->Reconstruct(init_options);
-  constexpr int kNumInitRelaxations = 2;
-  for (int i = 0;
-       i < kNumInitRelaxations && mapper->ReconstructionManager()->Size() == 0;
-       ++i) {
-    init_options.init_min_num_inliers /= 2;
-    mapper->Reconstruct(init_options);
-    if (mapper->ReconstructionManager()->Size() > 0) {
-      break;
-    }
-    init_options.init_min_tri_angle /= 2;
-    mapper->Reconstruct(init_options);
-  }
-}
-
-// Reconstructs every community with COLMAP's incremental mapper, several at
-// once, largest first. A community yielding several models keeps the
-// largest; one yielding none gets nullptr. Models are written to
-// output_path/communities/K as they finish (if output_path is set).
-Models ReconstructCommunities(const CommunityMapperController::Options& options,
-                              const CommunityImages& communities,
-                              CommunityMapperController::Summary* summary) {
-  const int num_communities =
-      static_cast<int>(communities.own_image_ids.size());
-  const int num_threads = GetEffectiveNumThreads(-1);
-  const int num_workers =
-      options.num_workers > 0
-          ? options.num_workers
-          : std::max(1, std::min(num_communities, num_threads));
-  const int num_threads_per_worker = std::max(1, num_threads / num_workers);
-  LOG(INFO) << StringPrintf(
-      "Reconstructing %d communities with %d workers, %d threads each",
-      num_communities,
-      num_workers,
-      num_threads_per_worker);
-
-  const std::string communities_path =
-      options.output_path.empty()
-          ? ""
-          : JoinPaths(options.output_path, "communities");
-  if (!communities_path.empty()) {
-    CreateDirIfNotExists(communities_path);
-  }
-
-  Models models(num_communities);
-  summary->community_reports.assign(num_communities, CommunityModelReport());
-  for (int c = 0; c < num_communities; ++c) {
-    summary->community_reports[c].num_images =
-        static_cast<int>(communities.image_names[c].size());
-  }
-  std::mutex summary_mutex;
-  std::mutex database_mutex;
-
-  auto reconstruct = [&](const int community) {
-    ScopedLogTag log_tag(StringPrintf("community %d", community));
-    try {
-      auto incremental_options = std::make_shared<IncrementalMapperOptions>(
-          options.CommunityIncrementalOptions(
-              communities.image_names[community], num_threads_per_worker));
-      LOG(INFO) << StringPrintf(
-          "Reconstructing community %d (%d images, %d shared with "
-          "neighbours)",
-          community,
-          static_cast<int>(communities.own_image_ids[community].size()),
-          static_cast<int>(communities.image_names[community].size() -
-                           communities.own_image_ids[community].size()));
-      auto reconstruction_manager = std::make_shared<ReconstructionManager>();
-      IncrementalMapperController mapper(std::move(incremental_options),
-                                         options.image_path,
-                                         options.database_path,
-                                         reconstruction_manager);
-      RunIncrementalMapper(&mapper, &database_mutex);
-
-      std::shared_ptr<Reconstruction> largest;
-      for (size_t i = 0; i < reconstruction_manager->Size(); ++i) {
-        const auto& reconstruction = reconstruction_manager->Get(i);
-        if (!largest ||
-            reconstruction->NumRegImages() > largest->NumRegImages()) {
-          largest = reconstruction;
-        }
-      }
-      const int num_images =
-          static_cast<int>(communities.image_names[community].size());
-      if (!largest || largest->NumRegImages() == 0) {
-        LOG(WARNING) << StringPrintf(
-            "Community %d (%d images) could not be reconstructed; it takes no "
-            "part in the merge.",
-            community,
-            num_images);
-        return;
-      }
-      if (reconstruction_manager->Size() > 1) {
-        LOG(WARNING) << StringPrintf(
-            "Community %d broke into %d models; the largest (%d of %d "
-            "images) takes part in the merge.",
-            community,
-            static_cast<int>(reconstruction_manager->Size()),
-            static_cast<int>(largest->NumRegImages()),
-            num_images);
-      }
-      if (!communities_path.empty()) {
-        const std::string path =
-            JoinPaths(communities_path, std::to_string(community));
-        try {
-          WriteReconstructionAtomically(*largest, path);
-        } catch (const std::exception& error) {
-          LOG(WARNING) << "Could not write " << path << ": " << error.what()
-                       << "; the community still takes part in the merge.";
-        }
-      }
-      LOG(INFO) << StringPrintf(
-          "Community %d done: %d of %d images registered, %d points",
-          community,
-          static_cast<int>(largest->NumRegImages()),
-          num_images,
-          static_cast<int>(largest->NumPoints3D()));
-
-      std::lock_guard<std::mutex> lock(summary_mutex);
-      models[community] = largest;
-      CommunityModelReport& report = summary->community_reports[community];
-      report.num_registered = static_cast<int>(largest->NumRegImages());
-      report.num_models = static_cast<int>(reconstruction_manager->Size());
-      report.mean_reprojection_error = largest->ComputeMeanReprojectionError();
-    } catch (const std::exception& error) {
-      LOG(ERROR) << StringPrintf(
-          "Community %d failed: %s; it takes no part in the merge.",
-          community,
-          error.what());
-    }
-  };
-
-  // Communities are numbered largest first, the order that keeps the
-  // workers busiest.
-  ThreadPool thread_pool(num_workers);
-  for (int community = 0; community < num_communities; ++community) {
-    thread_pool.AddTask(reconstruct, community);
-  }
-  thread_pool.Wait();
-  return models;
-}
-
-// View-graph edges between communities, by community pair (the smaller id
-// first), each as the pair of its images in that order.
-using CrossEdges =
-    std::map<std::pair<int, int>, std::vector<std::pair<image_t, image_t>>>;
-
-CrossEdges GroupCrossEdges(const ViewGraph& view_graph,
-                           const CommunityPartition& partition) {
-  CrossEdges cross_edges;
-  for (const ViewGraph::Edge& edge : view_graph.Edges()) {
-    int community1 = partition.membership[edge.vertex1];
-    int community2 = partition.membership[edge.vertex2];
-    image_t image_id1 = view_graph.ImageIds()[edge.vertex1];
-    image_t image_id2 = view_graph.ImageIds()[edge.vertex2];
-    if (community1 == community2) {
-      continue;
-    }
-    if (community1 > community2) {
-      std::swap(community1, community2);
-      std::swap(image_id1, image_id2);
-    }
-    cross_edges[{community1, community2}].emplace_back(image_id1, image_id2);
-  }
-  return cross_edges;
-}
-
-// The pairwise similarity of every pair of reconstructed communities joined
-// by view-graph edges, from the verified matches of those edges.
-// The 3D points (ids in the models of the smaller and of the larger
-// community) that the matches of one cross pair link, by image pair.
-using CrossPairPoints =
-    std::unordered_map<image_pair_t,
-                       std::vector<std::pair<point3D_t, point3D_t>>>;
-
-std::vector<RelativeSimilarity> EstimatePairwiseSimilarities(
-    const CommunityMapperController::Options& options,
-    const ViewGraph& view_graph,
-    const CrossEdges& cross_edges,
-    const Models& models,
-    std::vector<std::vector<std::pair<point3D_t, point3D_t>>>*
-        inlier_point3D_ids,
-    CrossPairPoints* cross_pair_points,
-    std::unordered_set<image_pair_t>* false_pairs,
-    CommunityMapperController::Summary* summary) {
-  summary->num_community_pairs = static_cast<int>(cross_edges.size());
-
-  const Database database(options.database_path);
-  std::vector<RelativeSimilarity> similarities;
-  std::unordered_set<image_pair_t> verified_pairs;
-  for (const ViewGraph::Edge& edge : view_graph.Edges()) {
-    verified_pairs.insert(
-        Database::ImagePairToPairId(view_graph.ImageIds()[edge.vertex1],
-                                    view_graph.ImageIds()[edge.vertex2]));
-  }
-  const auto is_verified_pair = [&verified_pairs](const image_t image_id1,
-                                                  const image_t image_id2) {
-    return verified_pairs.count(
-               Database::ImagePairToPairId(image_id1, image_id2)) > 0;
-  };
-  for (const auto& pair_and_edges : cross_edges) {
-    const int community1 = pair_and_edges.first.first;
-    const int community2 = pair_and_edges.first.second;
-    if (!models[community1] || !models[community2]) {
-      continue;
-    }
-    // Images on the border that both reconstructions registered: each of
-    // their keypoints with a 3D point in both is a correspondence.
-    const Reconstruction& model1 = *models[community1];
-    const Reconstruction& model2 = *models[community2];
-    std::vector<CrossPairMatches> cross_pairs;
-    for (const image_t image_id : model1.RegImageIds()) {
-      if (model2.ExistsImage(image_id) && model2.IsImageRegistered(image_id)) {
-        CrossPairMatches shared;
-        shared.image_id1 = image_id;
-        shared.image_id2 = image_id;
-        for (point2D_t idx = 0; idx < model1.Image(image_id).NumPoints2D();
-             ++idx) {
-          shared.matches.emplace_back(idx, idx);
-        }
-        cross_pairs.push_back(std::move(shared));
-      }
-    }
-    const int num_shared_images = static_cast<int>(cross_pairs.size());
-    for (const auto& image_pair : pair_and_edges.second) {
-      CrossPairMatches cross_pair;
-      cross_pair.image_id1 = image_pair.first;
-      cross_pair.image_id2 = image_pair.second;
-      cross_pair.matches =
-          database.ReadTwoViewGeometry(image_pair.first, image_pair.second)
-              .inlier_matches;
-      const PointCorrespondences pair_points =
-          FindPointCorrespondences(model1, model2, {cross_pair});
-      auto& points = (*cross_pair_points)[Database::ImagePairToPairId(
-          image_pair.first, image_pair.second)];
-      for (size_t i = 0; i < pair_points.Size(); ++i) {
-        points.emplace_back(pair_points.point3D_ids1[i],
-                            pair_points.point3D_ids2[i]);
-      }
-      cross_pairs.push_back(std::move(cross_pair));
-    }
-    const PointCorrespondences correspondences =
-        FindPointCorrespondences(model1, model2, cross_pairs);
-    // Every transform is checked against the matches it implies; one that
-    // contradicts them gives way to the next best.
-    CovisibilityCheck covisibility;
-    std::set<std::pair<point3D_t, point3D_t>> rejected_inliers;
-    std::string rejected_checks;
-    int num_rejected = 0;
-    const PairwiseSimilarity similarity = EstimatePairwiseSimilarity(
-        correspondences,
-        options.pairwise_similarity,
-        [&](const PairwiseSimilarity& candidate) {
-          covisibility = CheckCovisibility(model1,
-                                           model2,
-                                           candidate.second_from_first,
-                                           is_verified_pair,
-                                           options.covisibility_check);
-          if (!covisibility.consistent) {
-            rejected_inliers.insert(candidate.inlier_point3D_ids.begin(),
-                                    candidate.inlier_point3D_ids.end());
-            rejected_checks += StringPrintf(
-                " [%d inliers rejected: co-visible pairs verified %d of %d "
-                "across, %d of %d inside]",
-                candidate.num_inliers,
-                covisibility.num_verified_cross_pairs,
-                covisibility.num_predicted_cross_pairs,
-                covisibility.num_verified_internal_pairs,
-                covisibility.num_predicted_internal_pairs);
-          }
-          return covisibility.consistent;
-        },
-        &num_rejected);
-    LOG(INFO) << StringPrintf(
-        "Communities %d-%d: %d shared images, %d cross edges, %d point "
-        "correspondences%s -> %s",
-        community1,
-        community2,
-        num_shared_images,
-        static_cast<int>(pair_and_edges.second.size()),
-        static_cast<int>(correspondences.Size()),
-        rejected_checks.c_str(),
-        similarity.success
-            ? StringPrintf("%d inliers, scale %.4f, co-visible pairs "
-                           "verified %d of %d across, %d of %d inside: used",
-                           similarity.num_inliers,
-                           similarity.second_from_first.scale,
-                           covisibility.num_verified_cross_pairs,
-                           covisibility.num_predicted_cross_pairs,
-                           covisibility.num_verified_internal_pairs,
-                           covisibility.num_predicted_internal_pairs)
-                  .c_str()
-        : num_rejected > 0 ? "no transform explains the matches, not used"
-                           : "too little support, not used");
-    // The cross pairs whose matches mostly support a rejected transform
-    // (matches between two identical facades) are false: the merged
-    // model's refinement leaves them out, where it would re-introduce them
-    // as tracks (on generated landmarks with identical towers they took the
-    // median camera error from 0.03 to 0.19 m).
-    if (!rejected_inliers.empty()) {
-      for (const auto& image_pair : pair_and_edges.second) {
-        const image_pair_t pair_id =
-            Database::ImagePairToPairId(image_pair.first, image_pair.second);
-        const auto& points = cross_pair_points->at(pair_id);
-        size_t num_rejected_points = 0;
-        for (const auto& point_pair : points) {
-          num_rejected_points += rejected_inliers.count(point_pair);
-        }
-        if (2 * num_rejected_points > points.size()) {
-          false_pairs->insert(pair_id);
-        }
-      }
-    }
-    if (!similarity.success) {
-      continue;
-    }
-    RelativeSimilarity relative;
-    relative.community1 = community1;
-    relative.community2 = community2;
-    relative.second_from_first = similarity.second_from_first;
-    relative.points1 = similarity.inlier_points1;
-    relative.points2 = similarity.inlier_points2;
-    relative.num_inliers = similarity.num_inliers;
-    similarities.push_back(std::move(relative));
-    inlier_point3D_ids->push_back(similarity.inlier_point3D_ids);
-  }
-  summary->num_estimated_similarities = static_cast<int>(similarities.size());
-  return similarities;
+ViewGraph ReadViewGraph(const CommunityMapperController::Options& options) {
+  return ViewGraph::Read(Database(options.database_path),
+                         options.MinNumMatches());
 }
 
 // Joins the communities of one part (connected by kept similarities) into
@@ -406,8 +73,6 @@ std::shared_ptr<Reconstruction> MergePart(
     const std::vector<int>& part_communities,
     const CommunityImages& communities,
     const std::vector<RelativeSimilarity>& similarities,
-    const std::vector<std::vector<std::pair<point3D_t, point3D_t>>>&
-        inlier_point3D_ids,
     const SimilarityAveragingResult& averaging,
     const std::unordered_set<std::string>& extra_image_names,
     const std::unordered_set<image_pair_t>& false_pairs,
@@ -441,7 +106,7 @@ std::shared_ptr<Reconstruction> MergePart(
     const Database database(options.database_path);
     database_cache = DatabaseCache::Create(
         database,
-        static_cast<size_t>(options.incremental_options.min_num_matches),
+        static_cast<size_t>(options.MinNumMatches()),
         options.incremental_options.ignore_watermarks,
         part_image_names,
         [&false_pairs](const image_t image_id1, const image_t image_id2) {
@@ -485,7 +150,7 @@ std::shared_ptr<Reconstruction> MergePart(
         point3D_ids[index_in_part.at(similarities[e].community1)];
     const auto& ids2 =
         point3D_ids[index_in_part.at(similarities[e].community2)];
-    for (const auto& pair : inlier_point3D_ids[e]) {
+    for (const auto& pair : similarities[e].point3D_ids) {
       const auto it1 = ids1.find(pair.first);
       const auto it2 = ids2.find(pair.second);
       if (it1 != ids1.end() && it2 != ids2.end()) {
@@ -544,6 +209,13 @@ void LogSummary(const CommunityMapperController::Summary& summary) {
       summary.num_estimated_similarities,
       summary.num_kept_similarities,
       summary.num_estimated_similarities - summary.num_kept_similarities);
+  if (!summary.reused_communities.empty()) {
+    std::string ids;
+    for (const int c : summary.reused_communities) {
+      ids += " " + std::to_string(c);
+    }
+    LOG(INFO) << "Communities reused from an earlier run of this plan:" << ids;
+  }
   int num_registered = 0;
   for (size_t m = 0; m < summary.model_num_registered.size(); ++m) {
     LOG(INFO) << StringPrintf("Model %d: %d images",
@@ -612,32 +284,30 @@ CommunityMapperController::CommunityMapperController(
     const Options& options,
     std::shared_ptr<ReconstructionManager> reconstruction_manager)
     : options_(options),
+      workspace_(options.output_path),
       reconstruction_manager_(std::move(reconstruction_manager)) {
   THROW_CHECK(options_.Check());
+  THROW_CHECK(!options_.output_path.empty());
 }
 
-void CommunityMapperController::Run() {
-  Timer run_timer;
-  run_timer.Start();
-  summary_ = Summary();
-  Timer phase_timer;
-  auto end_phase = [&](const std::string& name) {
-    summary_.phase_seconds.emplace_back(name, phase_timer.ElapsedSeconds());
-    LOG(INFO) << StringPrintf(
-        "%s: %.3fs", name.c_str(), phase_timer.ElapsedSeconds());
-  };
-
-  //////////////////////////////////////////////////////////////////////////////
-  // 1. View graph and communities
-  //////////////////////////////////////////////////////////////////////////////
-
-  PrintHeading1("1. Partitioning the view graph into communities");
-  phase_timer.Start();
-
+bool CommunityMapperController::Partition() {
+  if (ExistsFile(workspace_.PlanPath())) {
+    if (!LoadPlan()) {
+      return false;
+    }
+    LOG(INFO) << workspace_.PlanPath()
+              << " exists and fits the database and options: the partition "
+                 "is done.";
+    return true;
+  }
+  Timer timer;
+  timer.Start();
+  const Database database(options_.database_path);
+  database_fingerprint_ = DatabaseFingerprint(database);
+  const ViewGraph view_graph =
+      ViewGraph::Read(database, options_.MinNumMatches());
   const ViewGraphEdgeWeight edge_weight =
       ViewGraphEdgeWeightFromString(options_.edge_weights);
-  const ViewGraph view_graph = ViewGraph::Read(Database(options_.database_path),
-                                               options_.MinNumMatches());
   const WeightedGraph graph = view_graph.ToWeightedGraph(edge_weight);
   const std::vector<std::vector<int>> components = graph.ConnectedComponents();
   summary_.num_view_graph_images = static_cast<int>(view_graph.NumVertices());
@@ -655,22 +325,40 @@ void CommunityMapperController::Run() {
     LOG(ERROR) << "The database has no verified image pairs with at least "
                << options_.MinNumMatches()
                << " inlier matches: run a matcher first.";
-    return;
+    return false;
   }
 
   const CommunityPartition partition = DetectCommunities(
       graph, GreedyModularityPartitioner(), options_.community_detection);
-  const CommunityImages communities = GroupImagesByCommunity(
-      view_graph, graph, partition, options_.image_overlap);
   summary_.max_modularity = partition.MaxModularity();
+
+  plan_ = CommunityPlan();
+  plan_.database_path = options_.database_path;
+  plan_.database_fingerprint = database_fingerprint_;
+  plan_.options = options_.plan_options;
+  plan_.communities.resize(partition.NumCommunities());
   for (size_t vertex = 0; vertex < view_graph.NumVertices(); ++vertex) {
-    summary_.community_of_image.emplace(view_graph.ImageIds()[vertex],
-                                        partition.membership[vertex]);
+    plan_.communities[partition.membership[vertex]].own_image_names.push_back(
+        view_graph.ImageNames()[vertex]);
   }
+  const std::vector<std::vector<int>> extended =
+      ExtendCommunities(graph, partition, options_.image_overlap);
+  for (size_t c = 0; c < extended.size(); ++c) {
+    for (const int vertex : extended[c]) {
+      if (partition.membership[vertex] != static_cast<int>(c)) {
+        plan_.communities[c].borrowed_image_names.push_back(
+            view_graph.ImageNames()[vertex]);
+      }
+    }
+  }
+  has_plan_ = true;
+
   std::string sizes;
-  for (const auto& image_ids : communities.own_image_ids) {
-    summary_.community_sizes.push_back(static_cast<int>(image_ids.size()));
-    sizes += " " + std::to_string(image_ids.size());
+  summary_.community_sizes.clear();
+  for (const auto& community : plan_.communities) {
+    summary_.community_sizes.push_back(
+        static_cast<int>(community.own_image_names.size()));
+    sizes += " " + std::to_string(community.own_image_names.size());
   }
   LOG(INFO) << StringPrintf(
       "%d communities (%d before merging those under %d images), sizes:%s",
@@ -678,77 +366,263 @@ void CommunityMapperController::Run() {
       partition.num_communities_before_merge,
       options_.community_detection.min_community_size,
       sizes.c_str());
-  if (!options_.output_path.empty()) {
-    const std::string path = JoinPaths(options_.output_path, "communities.txt");
-    WriteTextFileAtomically(
-        CommunitiesToText(view_graph,
-                          partition,
-                          options_.community_detection.modularity_threshold,
-                          edge_weight),
-        path);
-    LOG(INFO) << "Wrote " << path;
+
+  // The plan is written last: it marks a finished partition.
+  CreateDirIfNotExists(options_.output_path, /*recursive=*/true);
+  WriteTextFileAtomically(
+      CommunitiesToText(view_graph,
+                        partition,
+                        options_.community_detection.modularity_threshold,
+                        edge_weight),
+      workspace_.CommunitiesPath());
+  WriteTextFileAtomically(CommunityPlanToText(plan_), workspace_.PlanPath());
+  LOG(INFO) << "Wrote " << workspace_.CommunitiesPath() << " and "
+            << workspace_.PlanPath()
+            << StringPrintf(" (%.3fs)", timer.ElapsedSeconds());
+  return true;
+}
+
+bool CommunityMapperController::LoadPlan() {
+  if (has_plan_) {
+    return true;
   }
-  end_phase("Partition");
-  if (options_.partition_only) {
-    run_timer.PrintMinutes();
-    return;
+  if (!ExistsFile(workspace_.PlanPath())) {
+    LOG(ERROR) << workspace_.PlanPath()
+               << " does not exist: partition first (colmap "
+                  "community_partitioner, or community_mapper).";
+    return false;
+  }
+  try {
+    plan_ = CommunityPlanFromText(ReadTextFile(workspace_.PlanPath()));
+  } catch (const std::exception& error) {
+    LOG(ERROR) << workspace_.PlanPath() << " cannot be read: " << error.what()
+               << ". Partition again with --CommunityMapper.overwrite 1.";
+    return false;
+  }
+  if (database_fingerprint_.empty()) {
+    database_fingerprint_ =
+        DatabaseFingerprint(Database(options_.database_path));
+  }
+  const std::string mismatch =
+      PlanMismatch(plan_, database_fingerprint_, options_.plan_options);
+  if (!mismatch.empty()) {
+    LOG(ERROR) << "The plan in " << options_.output_path
+               << " does not fit this run: " << mismatch
+               << ". Use the database and options of the plan, or start over "
+                  "with --CommunityMapper.overwrite 1 (or another "
+                  "--output_path).";
+    return false;
+  }
+  summary_.community_sizes.clear();
+  for (const auto& community : plan_.communities) {
+    summary_.community_sizes.push_back(
+        static_cast<int>(community.own_image_names.size()));
+  }
+  has_plan_ = true;
+  return true;
+}
+
+bool CommunityMapperController::IsReconstructed(const int community_id) const {
+  const std::string path = workspace_.CommunityRecordPath(community_id);
+  if (!ExistsFile(path)) {
+    return false;
+  }
+  try {
+    const CommunityRecord record = CommunityRecordFromText(ReadTextFile(path));
+    return record.community_id == community_id &&
+           record.database_fingerprint == plan_.database_fingerprint &&
+           (record.num_registered == 0 ||
+            IsModelDir(workspace_.CommunityModelPath(community_id)));
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+bool CommunityMapperController::ReconstructAndRecord(
+    const int community_id, const int num_threads, std::mutex* database_mutex) {
+  ScopedLogTag log_tag(StringPrintf("community %d", community_id));
+  const CommunityPlan::Community& community = plan_.communities[community_id];
+  std::unordered_set<std::string> image_names(community.own_image_names.begin(),
+                                              community.own_image_names.end());
+  image_names.insert(community.borrowed_image_names.begin(),
+                     community.borrowed_image_names.end());
+  LOG(INFO) << StringPrintf(
+      "Reconstructing community %d (%d images, %d shared with neighbours)",
+      community_id,
+      static_cast<int>(community.own_image_names.size()),
+      static_cast<int>(community.borrowed_image_names.size()));
+  Timer timer;
+  timer.Start();
+  CommunityRecord record;
+  record.community_id = community_id;
+  record.num_images = static_cast<int>(image_names.size());
+  record.database_fingerprint = plan_.database_fingerprint;
+  try {
+    const CommunityReconstruction reconstruction = colmap::ReconstructCommunity(
+        std::make_shared<const IncrementalMapperOptions>(
+            options_.CommunityIncrementalOptions(image_names, num_threads)),
+        options_.image_path,
+        options_.database_path,
+        database_mutex);
+    record.num_models = reconstruction.num_models;
+    if (reconstruction.model && reconstruction.model->NumRegImages() > 0) {
+      const Reconstruction& model = *reconstruction.model;
+      record.num_registered = static_cast<int>(model.NumRegImages());
+      record.num_points = static_cast<int>(model.NumPoints3D());
+      record.mean_reprojection_error = model.ComputeMeanReprojectionError();
+      CreateDirIfNotExists(workspace_.CommunitiesDir());
+      WriteReconstructionAtomically(
+          model, workspace_.CommunityModelPath(community_id));
+    }
+  } catch (const std::exception& error) {
+    LOG(ERROR) << StringPrintf(
+        "Community %d failed: %s", community_id, error.what());
+    return false;
+  }
+  record.seconds = timer.ElapsedSeconds();
+  // The record is written last: it marks a finished community.
+  CreateDirIfNotExists(workspace_.CommunitiesDir());
+  WriteTextFileAtomically(CommunityRecordToText(record),
+                          workspace_.CommunityRecordPath(community_id));
+  if (record.num_registered == 0) {
+    LOG(WARNING) << StringPrintf(
+        "Community %d (%d images) could not be reconstructed; it takes no "
+        "part in the merge.",
+        community_id,
+        record.num_images);
+  } else {
+    LOG(INFO) << StringPrintf(
+        "Community %d done: %d of %d images registered%s, %d points (%.1fs)",
+        community_id,
+        record.num_registered,
+        record.num_images,
+        record.num_models > 1
+            ? StringPrintf(" in the largest of %d models", record.num_models)
+                  .c_str()
+            : "",
+        record.num_points,
+        record.seconds);
+  }
+  return true;
+}
+
+bool CommunityMapperController::ReconstructCommunity(const int community_id) {
+  if (!LoadPlan()) {
+    return false;
+  }
+  if (community_id < 0 || community_id >= plan_.NumCommunities()) {
+    LOG(ERROR) << "Community " << community_id << " is not in the plan of "
+               << options_.output_path << ", which has communities 0 to "
+               << plan_.NumCommunities() - 1 << ".";
+    return false;
+  }
+  if (IsReconstructed(community_id)) {
+    LOG(INFO) << "Community " << community_id << " has a record in "
+              << workspace_.CommunityRecordPath(community_id)
+              << ": it is reused (--CommunityMapper.overwrite 1 reconstructs "
+                 "it again).";
+    return true;
+  }
+  std::mutex database_mutex;
+  return ReconstructAndRecord(
+      community_id, GetEffectiveNumThreads(-1), &database_mutex);
+}
+
+bool CommunityMapperController::Merge() {
+  if (!LoadPlan()) {
+    return false;
+  }
+  std::vector<int> missing;
+  for (int c = 0; c < plan_.NumCommunities(); ++c) {
+    if (!IsReconstructed(c)) {
+      missing.push_back(c);
+    }
+  }
+  if (!missing.empty()) {
+    std::string ids;
+    for (const int c : missing) {
+      ids += (ids.empty() ? "" : ", ") + std::to_string(c);
+    }
+    LOG(ERROR) << StringPrintf(
+        "%d of the %d communities of the plan have not been reconstructed "
+        "(no record in %s): %s. Reconstruct them first (colmap "
+        "community_reconstructor --community_id K).",
+        static_cast<int>(missing.size()),
+        plan_.NumCommunities(),
+        workspace_.CommunitiesDir().c_str(),
+        ids.c_str());
+    return false;
   }
 
-  //////////////////////////////////////////////////////////////////////////////
-  // 2. Community reconstruction
-  //////////////////////////////////////////////////////////////////////////////
+  // The merge gives the same model from the same community models, whatever
+  // ran them and whichever thread merges.
+  SetPRNGSeed(kDefaultPRNGSeed);
+  Timer phase_timer;
+  phase_timer.Start();
+  PrintHeading1("Global similarity averaging");
+  const ViewGraph view_graph = ReadViewGraph(options_);
+  const CommunityImages communities = GroupImagesByCommunity(view_graph, plan_);
+  summary_.community_of_image = communities.community_of_image;
 
-  PrintHeading1("2. Reconstructing the communities");
-  phase_timer.Restart();
-  Models models = ReconstructCommunities(options_, communities, &summary_);
-  end_phase("Communities");
-  if (CheckIfStopped()) {
-    return;
+  // The communities, as their stage left them on disk.
+  const int num_communities = plan_.NumCommunities();
+  Models models(num_communities);
+  summary_.community_reports.assign(num_communities, CommunityModelReport());
+  for (int c = 0; c < num_communities; ++c) {
+    const CommunityRecord record = CommunityRecordFromText(
+        ReadTextFile(workspace_.CommunityRecordPath(c)));
+    CommunityModelReport& report = summary_.community_reports[c];
+    report.num_images = record.num_images;
+    report.num_registered = record.num_registered;
+    report.num_models = record.num_models;
+    report.mean_reprojection_error = record.mean_reprojection_error;
+    if (record.num_registered > 0) {
+      models[c] = std::make_shared<Reconstruction>();
+      models[c]->Read(workspace_.CommunityModelPath(c));
+    }
   }
 
-  //////////////////////////////////////////////////////////////////////////////
-  // 3. Pairwise similarities and global similarity averaging
-  //////////////////////////////////////////////////////////////////////////////
+  const CrossEdges cross_edges =
+      GroupCrossEdges(view_graph, communities.community_of_image);
+  summary_.num_community_pairs = static_cast<int>(cross_edges.size());
+  CommunitySimilarities community_similarities;
+  {
+    const Database database(options_.database_path);
+    community_similarities = EstimateCommunitySimilarities(
+        database,
+        view_graph,
+        cross_edges,
+        std::vector<std::shared_ptr<const Reconstruction>>(models.begin(),
+                                                           models.end()),
+        options_.pairwise_similarity,
+        options_.covisibility_check);
+  }
+  const std::vector<RelativeSimilarity>& similarities =
+      community_similarities.similarities;
+  const std::unordered_set<image_pair_t>& false_pairs =
+      community_similarities.false_pairs;
+  summary_.num_estimated_similarities = static_cast<int>(similarities.size());
 
-  PrintHeading1("3. Global similarity averaging");
-  phase_timer.Restart();
-  std::vector<std::vector<std::pair<point3D_t, point3D_t>>> inlier_point3D_ids;
-  std::unordered_set<image_pair_t> false_pairs;
-  CrossPairPoints cross_pair_points;
-  const CrossEdges cross_edges = GroupCrossEdges(view_graph, partition);
-  const std::vector<RelativeSimilarity> similarities =
-      EstimatePairwiseSimilarities(options_,
-                                   view_graph,
-                                   cross_edges,
-                                   models,
-                                   &inlier_point3D_ids,
-                                   &cross_pair_points,
-                                   &false_pairs,
-                                   &summary_);
   summary_.community_judgements =
       JudgeCommunityModels(summary_.community_reports, options_.judgement);
-  std::vector<AveragedCommunity> averaged_communities(models.size());
-  for (size_t c = 0; c < models.size(); ++c) {
+  std::vector<AveragedCommunity> averaged_communities(num_communities);
+  for (int c = 0; c < num_communities; ++c) {
+    const CommunityJudgement& judgement = summary_.community_judgements[c];
     averaged_communities[c].num_images =
         summary_.community_reports[c].num_registered;
-    averaged_communities[c].doubtful =
-        summary_.community_judgements[c].doubtful;
-    averaged_communities[c].excluded = summary_.community_judgements[c].broken;
-  }
-  const SimilarityAveragingResult averaging = AverageSimilarities(
-      averaged_communities, similarities, options_.similarity_averaging);
-  cross_pair_points.clear();
-  for (size_t c = 0; c < models.size(); ++c) {
-    const CommunityJudgement& judgement = summary_.community_judgements[c];
+    averaged_communities[c].doubtful = judgement.doubtful;
+    averaged_communities[c].excluded = judgement.broken;
     if (judgement.broken || judgement.doubtful) {
       LOG(WARNING) << StringPrintf(
           "Community %d is %s (%s)%s",
-          static_cast<int>(c),
+          c,
           judgement.broken ? "broken" : "in doubt",
           judgement.reason.c_str(),
           judgement.broken ? "" : ": it takes part with little weight.");
     }
   }
+  const SimilarityAveragingResult averaging = AverageSimilarities(
+      averaged_communities, similarities, options_.similarity_averaging);
   summary_.community_excluded = averaging.excluded;
   for (size_t e = 0; e < similarities.size(); ++e) {
     const auto& report = averaging.edges[e];
@@ -769,12 +643,12 @@ void CommunityMapperController::Run() {
         "transforms: the refinement leaves them out.",
         static_cast<int>(false_pairs.size()));
   }
-  for (size_t c = 0; c < models.size(); ++c) {
+  for (int c = 0; c < num_communities; ++c) {
     if (averaging.excluded[c]) {
       LOG(WARNING) << StringPrintf(
           "Community %d leaves the merge: %s. Its images are offered to the "
           "merged model.",
-          static_cast<int>(c),
+          c,
           summary_.community_judgements[c].broken ? "its model is broken"
           : summary_.community_judgements[c].doubtful
               ? "its similarities disagree with the other communities' "
@@ -784,13 +658,12 @@ void CommunityMapperController::Run() {
       models[c].reset();
     }
   }
-  end_phase("Similarity averaging");
+  summary_.phase_seconds.emplace_back("Similarity averaging",
+                                      phase_timer.ElapsedSeconds());
+  LOG(INFO) << StringPrintf("Similarity averaging: %.3fs",
+                            phase_timer.ElapsedSeconds());
 
-  //////////////////////////////////////////////////////////////////////////////
-  // 4. Merge and final bundle adjustment
-  //////////////////////////////////////////////////////////////////////////////
-
-  PrintHeading1("4. Merging the communities and bundle adjustment");
+  PrintHeading1("Merging the communities and bundle adjustment");
   phase_timer.Restart();
   // The images of a community without a model are offered to the part its
   // view-graph edges lead to most, whose refinement registers those it can.
@@ -824,9 +697,9 @@ void CommunityMapperController::Run() {
   std::vector<std::shared_ptr<Reconstruction>> merged_models;
   for (int part = 0; part < averaging.NumParts(); ++part) {
     std::vector<int> part_communities;
-    for (size_t c = 0; c < models.size(); ++c) {
+    for (int c = 0; c < num_communities; ++c) {
       if (averaging.part_of_community[c] == part && models[c]) {
-        part_communities.push_back(static_cast<int>(c));
+        part_communities.push_back(c);
       }
     }
     if (part_communities.empty()) {
@@ -850,34 +723,24 @@ void CommunityMapperController::Run() {
       merged_models.push_back(std::move(model));
       continue;
     }
-
     try {
       merged_models.push_back(MergePart(options_,
                                         part_communities,
                                         communities,
                                         similarities,
-                                        inlier_point3D_ids,
                                         averaging,
                                         unmodelled_images_of_part[part],
                                         false_pairs,
                                         &models,
                                         &refinement_seconds));
     } catch (const std::exception& error) {
-      // Nothing is lost: the part's communities, as written when they were
-      // done, become models of their own.
+      // Nothing is lost: the part's communities, as their stage wrote them,
+      // become models of their own.
       LOG(ERROR) << "Merging communities failed: " << error.what()
                  << "; each of them is written as a model of its own.";
       for (const int c : part_communities) {
-        const std::string path =
-            options_.output_path.empty()
-                ? ""
-                : JoinPaths(
-                      options_.output_path, "communities", std::to_string(c));
-        if (path.empty() || !ExistsDir(path)) {
-          continue;
-        }
         auto model = std::make_shared<Reconstruction>();
-        model->Read(path);
+        model->Read(workspace_.CommunityModelPath(c));
         model = RestrictToImages(communities.own_image_ids[c], model);
         if (model->NumRegImages() >= 2) {
           merged_models.push_back(std::move(model));
@@ -897,14 +760,14 @@ void CommunityMapperController::Run() {
         static_cast<int>(model->NumRegImages()));
     reconstruction_manager_->Get(reconstruction_manager_->Add()) = model;
   }
-  if (!options_.output_path.empty() && !merged_models.empty()) {
-    const std::string path = JoinPaths(options_.output_path, "communities.ply");
+  if (!merged_models.empty()) {
     try {
       WriteTextFileAtomically(
           CommunityCamerasToPly(*merged_models[0], summary_.community_of_image),
-          path);
+          workspace_.CommunitiesPlyPath());
     } catch (const std::exception& error) {
-      LOG(WARNING) << "Could not write " << path << ": " << error.what();
+      LOG(WARNING) << "Could not write " << workspace_.CommunitiesPlyPath()
+                   << ": " << error.what();
     }
   }
   // The merge (joining the models, merging their points, loading the
@@ -919,13 +782,115 @@ void CommunityMapperController::Run() {
   LOG(INFO) << StringPrintf("Merge: %.3fs, final bundle adjustment: %.3fs",
                             merge_total - refinement_seconds,
                             refinement_seconds);
+  if (merged_models.empty()) {
+    LOG(ERROR) << "No community could be reconstructed: no model written.";
+    return false;
+  }
+  return true;
+}
+
+void CommunityMapperController::Run() { RunAllStages(); }
+
+bool CommunityMapperController::RunAllStages() {
+  Timer run_timer;
+  run_timer.Start();
+  summary_ = Summary();
+  Timer phase_timer;
+  auto end_phase = [&](const std::string& name) {
+    summary_.phase_seconds.emplace_back(name, phase_timer.ElapsedSeconds());
+    LOG(INFO) << StringPrintf(
+        "%s: %.3fs", name.c_str(), phase_timer.ElapsedSeconds());
+  };
 
   //////////////////////////////////////////////////////////////////////////////
-  // Summary
+  // 1. View graph and communities (or the plan of an earlier run)
   //////////////////////////////////////////////////////////////////////////////
 
+  PrintHeading1("1. Partitioning the view graph into communities");
+  phase_timer.Start();
+  if (ExistsFile(workspace_.PlanPath())) {
+    LOG(INFO) << "Resuming the run in " << options_.output_path
+              << " from its plan";
+    if (!LoadPlan()) {
+      return false;
+    }
+  } else if (!Partition()) {
+    return false;
+  }
+  end_phase("Partition");
+  if (options_.partition_only) {
+    run_timer.PrintMinutes();
+    return true;
+  }
+
+  //////////////////////////////////////////////////////////////////////////////
+  // 2. Community reconstruction
+  //////////////////////////////////////////////////////////////////////////////
+
+  PrintHeading1("2. Reconstructing the communities");
+  phase_timer.Restart();
+  std::vector<int> to_reconstruct;
+  for (int c = 0; c < plan_.NumCommunities(); ++c) {
+    (IsReconstructed(c) ? summary_.reused_communities : to_reconstruct)
+        .push_back(c);
+  }
+  if (!summary_.reused_communities.empty()) {
+    std::string ids;
+    for (const int c : summary_.reused_communities) {
+      ids += " " + std::to_string(c);
+    }
+    LOG(INFO) << "Reusing the communities reconstructed by an earlier run of "
+                 "this plan:"
+              << ids;
+  }
+  const int num_threads = GetEffectiveNumThreads(-1);
+  const int num_workers =
+      options_.num_workers > 0
+          ? options_.num_workers
+          : std::max(
+                1,
+                std::min(static_cast<int>(to_reconstruct.size()), num_threads));
+  const int num_threads_per_worker = std::max(1, num_threads / num_workers);
+  LOG(INFO) << StringPrintf(
+      "Reconstructing %d communities with %d workers, %d threads each",
+      static_cast<int>(to_reconstruct.size()),
+      num_workers,
+      num_threads_per_worker);
+  std::mutex database_mutex;
+  std::mutex progress_mutex;
+  int num_done = 0;
+  // Communities are numbered largest first, the order that keeps the
+  // workers busiest.
+  ThreadPool thread_pool(num_workers);
+  for (const int c : to_reconstruct) {
+    thread_pool.AddTask([&, c]() {
+      if (!ReconstructAndRecord(c, num_threads_per_worker, &database_mutex)) {
+        return;
+      }
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      summary_.reconstructed_communities.push_back(c);
+      ++num_done;
+      LOG(INFO) << StringPrintf(
+          "Communities done: %d of %d (%.0fs)",
+          num_done + static_cast<int>(summary_.reused_communities.size()),
+          plan_.NumCommunities(),
+          phase_timer.ElapsedSeconds());
+    });
+  }
+  thread_pool.Wait();
+  end_phase("Communities");
+  if (CheckIfStopped()) {
+    return false;
+  }
+
+  //////////////////////////////////////////////////////////////////////////////
+  // 3-4. Similarity averaging, merge and final bundle adjustment
+  //////////////////////////////////////////////////////////////////////////////
+
+  const bool merged = Merge();
   LogSummary(summary_);
   run_timer.PrintMinutes();
+  return merged;
 }
 
 }  // namespace colmap

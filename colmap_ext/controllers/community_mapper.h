@@ -12,13 +12,21 @@
 //
 // Compared with COLMAP's HierarchicalMapperController, which partitions by
 // METIS into overlapping clusters and merges them pair by pair, the
-// partition follows the view graph's own structure (and only where there is
-// one), the merge is global, and the merged model is bundle adjusted.
+// partition follows the view graph's own structure, the merge is global and
+// judges what it merges, and the merged model is bundle adjusted.
+//
+// The work is done in three stages over files in the output folder
+// (community_workspace.h), each a method that another process, or a
+// cluster's job, can run alone: Partition(), ReconstructCommunity(K) for
+// every community, Merge(). Run() does all three in one process and resumes
+// an earlier run of the same plan: the communities that have a record are
+// not reconstructed again.
 
 #pragma once
 
 #include "colmap_ext/graph/community_detection.h"
 #include "colmap_ext/graph/view_graph.h"
+#include "colmap_ext/scene/community_workspace.h"
 #include "colmap_ext/sfm/community_judgement.h"
 #include "colmap_ext/sfm/community_merger.h"
 #include "colmap_ext/sfm/covisibility_check.h"
@@ -30,6 +38,7 @@
 #include "colmap/util/base_controller.h"
 
 #include <memory>
+#include <mutex>
 #include <string>
 #include <unordered_set>
 #include <vector>
@@ -45,10 +54,15 @@ class CommunityMapperController : public BaseController {
     // The path to the database file which is used as input.
     std::string database_path;
 
-    // Folder for communities.txt, communities/K/ (one model per community,
-    // written as soon as it is done) and communities.ply. Empty: the
-    // controller writes nothing.
+    // The output folder (community_workspace.h): the plan, communities.txt,
+    // communities/K/ (one model per community, written as soon as it is
+    // done, and its record), communities.ply. Required.
     std::string output_path;
+
+    // The options that shape the partition and the communities, as
+    // "key=value" lines (the command fills them in). The plan records them;
+    // the later stages refuse a plan made with others.
+    std::string plan_options;
 
     // Community detection: the modularity threshold (CSfM: 0.3), the
     // minimum community size (CSfM: N = 20), the balance rule.
@@ -151,6 +165,10 @@ class CommunityMapperController : public BaseController {
     int num_community_pairs = 0;
     int num_estimated_similarities = 0;
     int num_kept_similarities = 0;
+    // Communities reconstructed by this run, and those reused from an
+    // earlier run of the same plan.
+    std::vector<int> reconstructed_communities;
+    std::vector<int> reused_communities;
     // Final models (largest first): registered images of each.
     std::vector<int> model_num_registered;
     // Community of every image of the view graph.
@@ -163,13 +181,48 @@ class CommunityMapperController : public BaseController {
       const Options& options,
       std::shared_ptr<ReconstructionManager> reconstruction_manager);
 
+  // Stage 1: the view graph, its communities, communities.txt and the plan.
+  // False (with the reason logged) if the database has no view graph.
+  bool Partition();
+
+  // Stage 2: reconstructs one community of the plan into communities/K/ and
+  // writes its record. False if there is no plan that fits this run's
+  // database and options, or K is not in it.
+  bool ReconstructCommunity(int community_id);
+
+  // Stage 3: merges the communities of the plan from their models and
+  // records on disk into reconstruction_manager (largest first) and writes
+  // communities.ply. False if the plan does not fit, or communities have
+  // no record yet (they are named).
+  bool Merge();
+
+  // All three stages; where the output folder holds a plan that fits, the
+  // partition is read from it and communities with a record are reused.
+  // False if a stage failed (logged).
+  bool RunAllStages();
+
+  // RunAllStages(), as a BaseController.
   void Run() override;
 
   const Summary& GetSummary() const { return summary_; }
 
  private:
+  // Reads the plan and checks that it fits this run; logs why not.
+  bool LoadPlan();
+  // Reconstructs the community with `num_threads` threads and writes its
+  // model and record.
+  bool ReconstructAndRecord(int community_id,
+                            int num_threads,
+                            std::mutex* database_mutex);
+  // Whether the community has a record that fits the plan.
+  bool IsReconstructed(int community_id) const;
+
   const Options options_;
+  const CommunityWorkspace workspace_;
   std::shared_ptr<ReconstructionManager> reconstruction_manager_;
+  std::string database_fingerprint_;
+  CommunityPlan plan_;
+  bool has_plan_ = false;
   Summary summary_;
 };
 

@@ -1,5 +1,6 @@
 #include "colmap_ext/exe/community_mapper.h"
 
+#include "colmap_ext/scene/community_workspace.h"
 #include "colmap_ext/util/atomic_output.h"
 #include "colmap_ext/util/log_tag.h"
 
@@ -7,6 +8,7 @@
 #include "colmap/util/misc.h"
 
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include <boost/filesystem.hpp>
@@ -199,160 +201,203 @@ void CheckImagePath(const std::string& image_path) {
   }
 }
 
-// The numbered model folders in OUT (0, 1, ...).
-std::vector<std::string> ExistingModels(const std::string& output_path) {
-  std::vector<std::string> models;
-  for (int i = 0; ExistsDir(JoinPaths(output_path, std::to_string(i))); ++i) {
-    if (IsModelDir(JoinPaths(output_path, std::to_string(i)))) {
-      models.push_back(JoinPaths(output_path, std::to_string(i)));
+// The options that shape the partition and the communities' models, as
+// "key=value" lines of project.ini: every incremental mapper option but its
+// threads and snapshots, and the CommunityMapper options below. The plan
+// records them; the later stages refuse a plan made with others. The merge's
+// own options may differ between merges of the same communities.
+std::string PlanOptions(const std::string& project_ini) {
+  static const std::set<std::string> kCommunityMapperKeys = {
+      "modularity_threshold",
+      "min_community_size",
+      "max_community_fraction",
+      "min_num_matches",
+      "edge_weights",
+      "image_overlap",
+      "community_ba_function_tolerance",
+      "community_ba_global_ratio"};
+  static const std::set<std::string> kIgnoredMapperKeys = {
+      "num_threads", "snapshot_path", "snapshot_images_freq"};
+  std::string plan_options;
+  std::string section;
+  std::istringstream lines(project_ini);
+  std::string line;
+  while (std::getline(lines, line)) {
+    if (!line.empty() && line[0] == '[') {
+      section = line.substr(1, line.find(']') - 1);
+      continue;
+    }
+    const size_t equals = line.find('=');
+    if (equals == std::string::npos) {
+      continue;
+    }
+    const std::string key = line.substr(0, equals);
+    if ((section == "Mapper" && kIgnoredMapperKeys.count(key) == 0) ||
+        (section == "CommunityMapper" && kCommunityMapperKeys.count(key))) {
+      plan_options += section + "." + line + "\n";
     }
   }
-  return models;
+  return plan_options;
 }
 
-// Makes sure OUT is a writable folder without earlier results (unless they
-// may be replaced).
-bool PrepareOutputPath(const std::string& output_path, const bool overwrite) {
-  if (output_path.empty()) {
-    LOG(ERROR) << "--output_path is empty.";
-    return false;
+const char* StageName(const CommunityMapperStage stage) {
+  switch (stage) {
+    case CommunityMapperStage::kAll:
+      return "community_mapper";
+    case CommunityMapperStage::kPartition:
+      return "community_partitioner";
+    case CommunityMapperStage::kCommunity:
+      return "community_reconstructor";
+    case CommunityMapperStage::kMerge:
+      return "community_merger";
   }
-  if (boost::filesystem::exists(output_path) && !ExistsDir(output_path)) {
-    LOG(ERROR) << "--output_path " << output_path
-               << " is a file, not a folder: choose a folder for the models.";
-    return false;
-  }
-  boost::system::error_code error;
-  boost::filesystem::create_directories(output_path, error);
-  if (error) {
-    LOG(ERROR) << "Cannot create --output_path " << output_path << ": "
-               << error.message() << ".";
-    return false;
-  }
-  const std::string probe = JoinPaths(output_path, ".write-test");
-  {
-    std::ofstream file(probe);
-    if (!file.is_open() || !(file << "x")) {
-      LOG(ERROR) << "--output_path " << output_path
-                 << " is not writable: choose a folder you can write to.";
-      return false;
-    }
-  }
-  boost::filesystem::remove(probe, error);
-
-  const std::vector<std::string> models = ExistingModels(output_path);
-  const bool has_results =
-      !models.empty() ||
-      ExistsFile(JoinPaths(output_path, "communities.txt")) ||
-      ExistsDir(JoinPaths(output_path, "communities"));
-  if (has_results && !overwrite) {
-    LOG(ERROR) << "--output_path " << output_path
-               << " already holds results of an earlier run"
-               << (models.empty() ? "" : " (e.g. " + models[0] + ")")
-               << ". Choose another folder, or pass "
-                  "--CommunityMapper.overwrite 1 to replace them.";
-    return false;
-  }
-  if (has_results) {
-    LOG(WARNING) << "Replacing the results in " << output_path
-                 << " (--CommunityMapper.overwrite 1)";
-    boost::filesystem::remove_all(JoinPaths(output_path, "communities"));
-  }
-  return true;
+  return "";
 }
 
-// Writes the merged models as OUT/0, OUT/1, ... (each under a temporary name,
-// then renamed into place), removes models of an earlier run beyond them,
-// and writes OUT/project.ini.
-void WriteModels(const ReconstructionManager& reconstruction_manager,
-                 const std::string& output_path,
-                 const std::string& project_ini) {
-  for (size_t i = 0; i < reconstruction_manager.Size(); ++i) {
-    WriteReconstructionAtomically(*reconstruction_manager.Get(i),
-                                  JoinPaths(output_path, std::to_string(i)));
+// Decides what the command may do with the results already in OUT: resume
+// them (a plan of the same database and options: the controller checks
+// that), replace them (--CommunityMapper.overwrite 1), or nothing (refused).
+bool PrepareWorkspace(const CommunityMapperCommand& command,
+                      const CommunityWorkspace& workspace) {
+  const bool has_plan = ExistsFile(workspace.PlanPath());
+  if ((command.stage == CommunityMapperStage::kCommunity ||
+       command.stage == CommunityMapperStage::kMerge) &&
+      !has_plan) {
+    LOG(ERROR) << workspace.PlanPath()
+               << " does not exist: run `colmap community_partitioner` with "
+                  "this --output_path first.";
+    return false;
   }
-  // Models of an earlier run beyond the new ones would mix with them.
-  for (size_t i = reconstruction_manager.Size();
-       ExistsDir(JoinPaths(output_path, std::to_string(i)));
-       ++i) {
-    boost::filesystem::remove_all(JoinPaths(output_path, std::to_string(i)));
+  const std::string problem = workspace.CreateOutputFolder();
+  if (!problem.empty()) {
+    LOG(ERROR) << problem;
+    return false;
   }
-  if (!project_ini.empty()) {
-    WriteTextFileAtomically(project_ini, JoinPaths(output_path, "project.ini"));
+  switch (command.stage) {
+    case CommunityMapperStage::kAll:
+    case CommunityMapperStage::kPartition:
+      if (command.overwrite) {
+        if (workspace.HasResults()) {
+          LOG(WARNING) << "Replacing the results in " << workspace.OutputPath()
+                       << " (--CommunityMapper.overwrite 1)";
+          workspace.RemoveResults();
+        }
+      } else if (!has_plan && workspace.HasResults()) {
+        const std::vector<std::string> models = workspace.MergedModelPaths();
+        LOG(ERROR) << "--output_path " << workspace.OutputPath()
+                   << " already holds results of an earlier run"
+                   << (models.empty() ? "" : " (e.g. " + models[0] + ")")
+                   << " but no plan to resume. Choose another folder, or "
+                      "pass --CommunityMapper.overwrite 1 to replace them.";
+        return false;
+      }
+      return true;
+    case CommunityMapperStage::kCommunity:
+    case CommunityMapperStage::kMerge:
+      return true;
   }
+  return false;
 }
 
 }  // namespace
 
-bool RunCommunityMapperImpl(const CommunityMapperController::Options& options,
-                            const bool overwrite,
-                            const std::string& project_ini) {
+bool RunCommunityMapperImpl(const CommunityMapperCommand& command) {
+  const CommunityMapperController::Options& options = command.options;
+  const CommunityWorkspace workspace(options.output_path);
   if (!CheckCommandOptions(options) ||
       !CheckDatabase(options.database_path, options.MinNumMatches()) ||
-      !PrepareOutputPath(options.output_path, overwrite)) {
+      !PrepareWorkspace(command, workspace)) {
     return false;
   }
-  if (!options.partition_only) {
+  if (command.stage == CommunityMapperStage::kCommunity &&
+      command.community_id < 0) {
+    LOG(ERROR) << "--community_id is missing or negative: give the community "
+                  "to reconstruct, 0 to N-1 for the N communities in "
+               << workspace.PlanPath() << ".";
+    return false;
+  }
+  const bool merges = command.stage == CommunityMapperStage::kAll ||
+                      command.stage == CommunityMapperStage::kMerge;
+  if (merges && !options.partition_only) {
     CheckImagePath(options.image_path);
   }
 
   auto reconstruction_manager = std::make_shared<ReconstructionManager>();
-  CommunityMapperController::Summary summary;
   try {
     CommunityMapperController controller(options, reconstruction_manager);
-    controller.Run();
-    summary = controller.GetSummary();
+    bool success = true;
+    switch (command.stage) {
+      case CommunityMapperStage::kAll:
+        success = controller.RunAllStages();
+        break;
+      case CommunityMapperStage::kPartition:
+        success = controller.Partition();
+        break;
+      case CommunityMapperStage::kCommunity:
+        if (command.overwrite) {
+          workspace.RemoveCommunity(command.community_id);
+        }
+        success = controller.ReconstructCommunity(command.community_id);
+        break;
+      case CommunityMapperStage::kMerge:
+        success = controller.Merge();
+        break;
+    }
+    if (!success) {
+      return false;
+    }
   } catch (const std::exception& error) {
-    LOG(ERROR) << "community_mapper failed: " << error.what();
-    return false;
-  }
-  if (summary.community_sizes.empty()) {
-    LOG(ERROR) << "No communities: the view graph is empty.";
+    LOG(ERROR) << StageName(command.stage) << " failed: " << error.what();
     return false;
   }
 
-  const std::string& output_path = options.output_path;
-  std::vector<std::string> outputs = {
-      JoinPaths(output_path, "communities.txt") + " (the partition)"};
-  if (options.partition_only && overwrite) {
-    // The merged models of an earlier run (allowed to be replaced) do not
-    // belong to the new partition.
-    boost::system::error_code error;
-    for (const std::string& model : ExistingModels(output_path)) {
-      LOG(INFO) << "Removing " << model << " of an earlier run";
-      boost::filesystem::remove_all(model, error);
+  std::vector<std::string> outputs;
+  try {
+    if (command.stage == CommunityMapperStage::kPartition ||
+        (command.stage == CommunityMapperStage::kAll &&
+         !ExistsFile(workspace.ProjectPath()))) {
+      if (!command.project_ini.empty()) {
+        WriteTextFileAtomically(command.project_ini, workspace.ProjectPath());
+      }
     }
-    boost::filesystem::remove(JoinPaths(output_path, "communities.ply"), error);
-  }
-  if (!options.partition_only) {
-    if (reconstruction_manager->Size() == 0) {
-      LOG(ERROR) << "No community could be reconstructed: no model written.";
-      return false;
+    if (command.stage == CommunityMapperStage::kPartition ||
+        (command.stage == CommunityMapperStage::kAll &&
+         options.partition_only)) {
+      outputs.push_back(workspace.CommunitiesPath() + " (the partition)");
+      outputs.push_back(workspace.PlanPath() +
+                        " (what the community and merge stages read)");
+    } else if (command.stage == CommunityMapperStage::kCommunity) {
+      outputs.push_back(workspace.CommunityModelPath(command.community_id) +
+                        " (the community's model) and its record " +
+                        workspace.CommunityRecordPath(command.community_id));
+    } else {
+      std::vector<std::shared_ptr<const Reconstruction>> models;
+      for (size_t i = 0; i < reconstruction_manager->Size(); ++i) {
+        models.push_back(reconstruction_manager->Get(i));
+      }
+      workspace.WriteMergedModels(models);
+      if (!command.project_ini.empty()) {
+        WriteTextFileAtomically(command.project_ini, workspace.ProjectPath());
+      }
+      outputs.push_back(workspace.MergedModelPath(0) +
+                        (models.size() > 1
+                             ? " .. " + std::to_string(models.size() - 1)
+                             : std::string()) +
+                        " (the merged model" + (models.size() > 1 ? "s" : "") +
+                        ", largest first)");
+      outputs.push_back(JoinPaths(workspace.CommunitiesDir(), "K") +
+                        " (each community's own model)");
+      outputs.push_back(workspace.CommunitiesPlyPath() +
+                        " (camera centres of model 0, coloured by community)");
+      outputs.push_back(workspace.ProjectPath());
     }
-    try {
-      WriteModels(*reconstruction_manager, output_path, project_ini);
-    } catch (const std::exception& error) {
-      LOG(ERROR) << "Writing the models to " << output_path
-                 << " failed: " << error.what()
-                 << ". No model folder is half-written, but those after the "
-                    "failed one may still be an earlier run's; check the free "
-                    "space and permissions, then run again.";
-      return false;
-    }
-    outputs.push_back(
-        JoinPaths(output_path, "0") +
-        (reconstruction_manager->Size() > 1
-             ? " .. " + std::to_string(reconstruction_manager->Size() - 1)
-             : std::string()) +
-        " (the merged model" + (reconstruction_manager->Size() > 1 ? "s" : "") +
-        ", largest first)");
-    outputs.push_back(JoinPaths(output_path, "communities", "K") +
-                      " (each community's own model)");
-    outputs.push_back(JoinPaths(output_path, "communities.ply") +
-                      " (camera centres of model 0, coloured by community)");
-    if (!project_ini.empty()) {
-      outputs.push_back(JoinPaths(output_path, "project.ini"));
-    }
+  } catch (const std::exception& error) {
+    LOG(ERROR) << "Writing to " << workspace.OutputPath()
+               << " failed: " << error.what()
+               << ". No file or model folder is half-written; check the free "
+                  "space and permissions, then run the same command again "
+                  "(it resumes).";
+    return false;
   }
   LOG(INFO) << "Results:";
   for (const std::string& output : outputs) {
@@ -361,17 +406,59 @@ bool RunCommunityMapperImpl(const CommunityMapperController::Options& options,
   return true;
 }
 
-int RunCommunityMapper(int argc, char** argv) {
-  InstallTaggedLogPrefix("colmap");
+namespace {
 
-  CommunityMapperController::Options mapper_options;
+// Parses the command line of `stage`'s command into `command` (exits on
+// --help or unparsable options, as every COLMAP command does).
+void ParseCommand(int argc,
+                  char** argv,
+                  const CommunityMapperStage stage,
+                  CommunityMapperCommand* command) {
+  InstallTaggedLogPrefix("colmap");
+  command->stage = stage;
+  CommunityMapperController::Options& mapper_options = command->options;
   std::string output_path;
-  bool overwrite = false;
+
+  // --community_id is taken from the command line even with --project_path
+  // (whose options replace the command line's in COLMAP's OptionManager), so
+  // that the jobs of an array share one project file.
+  std::vector<char*> arguments(argv, argv + argc);
+  if (stage == CommunityMapperStage::kCommunity) {
+    for (size_t i = 1; i < arguments.size(); ++i) {
+      const std::string argument = arguments[i];
+      std::string value;
+      if (argument == "--community_id" && i + 1 < arguments.size()) {
+        value = arguments[i + 1];
+        arguments.erase(arguments.begin() + i, arguments.begin() + i + 2);
+      } else if (argument.rfind("--community_id=", 0) == 0) {
+        value = argument.substr(15);
+        arguments.erase(arguments.begin() + i);
+      } else {
+        continue;
+      }
+      try {
+        size_t end = 0;
+        command->community_id = std::stoi(value, &end);
+        if (end != value.size()) throw std::invalid_argument(value);
+      } catch (const std::logic_error&) {
+        LOG(ERROR) << "--community_id " << value << " is not a number.";
+        std::exit(EXIT_FAILURE);
+      }
+      break;
+    }
+  }
 
   OptionManager options;
   options.AddDatabaseOptions();
   options.AddImageOptions();
   options.AddRequiredOption("output_path", &output_path);
+  int community_id_for_help = -1;
+  if (stage == CommunityMapperStage::kCommunity) {
+    options.AddDefaultOption("community_id",
+                             &community_id_for_help,
+                             "the community to reconstruct (0 to N-1, N in "
+                             "OUT/plan.txt; on Slurm: $SLURM_ARRAY_TASK_ID)");
+  }
 
   // Every CommunityMapper option, registered once for parsing and for
   // project.ini.
@@ -485,11 +572,14 @@ int RunCommunityMapper(int argc, char** argv) {
       "at any size (COLMAP switches to the iterative one above 1000 images)");
   // Not saved to project.ini: a saved project must not replace results.
   options.AddDefaultOption("CommunityMapper.overwrite",
-                           &overwrite,
-                           "replace the results of an earlier run in "
-                           "output_path");
+                           &command->overwrite,
+                           stage == CommunityMapperStage::kCommunity
+                               ? "reconstruct the community again even if "
+                                 "it has a record"
+                               : "replace the results of an earlier run in "
+                                 "output_path");
   options.AddMapperOptions();
-  options.Parse(argc, argv);
+  options.Parse(static_cast<int>(arguments.size()), arguments.data());
 
   mapper_options.database_path = *options.database_path;
   mapper_options.image_path = *options.image_path;
@@ -511,13 +601,38 @@ int RunCommunityMapper(int argc, char** argv) {
       write();
     }
     // output_path first: options outside any section precede the sections.
-    project_ini =
+    command->project_ini =
         "output_path=" + output_path + "\n" + text.str() + ini_section.str();
   }
+  mapper_options.plan_options = PlanOptions(command->project_ini);
+  if (stage == CommunityMapperStage::kCommunity) {
+    // Its project would carry --community_id: the partition's stays.
+    command->project_ini.clear();
+  }
+}
 
-  return RunCommunityMapperImpl(mapper_options, overwrite, project_ini)
-             ? EXIT_SUCCESS
-             : EXIT_FAILURE;
+int RunStage(int argc, char** argv, const CommunityMapperStage stage) {
+  CommunityMapperCommand command;
+  ParseCommand(argc, argv, stage, &command);
+  return RunCommunityMapperImpl(command) ? EXIT_SUCCESS : EXIT_FAILURE;
+}
+
+}  // namespace
+
+int RunCommunityMapper(int argc, char** argv) {
+  return RunStage(argc, argv, CommunityMapperStage::kAll);
+}
+
+int RunCommunityPartitioner(int argc, char** argv) {
+  return RunStage(argc, argv, CommunityMapperStage::kPartition);
+}
+
+int RunCommunityReconstructor(int argc, char** argv) {
+  return RunStage(argc, argv, CommunityMapperStage::kCommunity);
+}
+
+int RunCommunityMerger(int argc, char** argv) {
+  return RunStage(argc, argv, CommunityMapperStage::kMerge);
 }
 
 }  // namespace colmap

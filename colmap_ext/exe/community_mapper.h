@@ -1,13 +1,21 @@
-// `colmap community_mapper`: community-based SfM as a COLMAP command.
+// The community mapper's commands.
 //
 //   colmap community_mapper --database_path DB --image_path IMAGES
 //       --output_path OUT [--CommunityMapper.* ...] [--Mapper.* ...]
 //
-// Writes OUT/communities.txt as soon as the partition is known, one model per
-// community in OUT/communities/K/ as each finishes, then the merged models
-// OUT/0, OUT/1, ... (largest first), OUT/communities.ply and OUT/project.ini.
-// Bad input is refused with a message naming the problem before anything
-// is written; existing results in OUT are only replaced with
+// runs every stage in one process (partition, the communities, the merge)
+// and resumes a killed run of the same command on the same OUT. The stages
+// also run alone, e.g. as the jobs of a cluster's scheduler
+// (scripts/slurm_community_mapper.sh):
+//
+//   colmap community_partitioner   (same options)   -> OUT/plan.txt, ...
+//   colmap community_reconstructor --project_path OUT/project.ini
+//       --community_id K                            -> OUT/communities/K
+//   colmap community_merger --project_path OUT/project.ini -> OUT/0, ...
+//
+// OUT's layout is community_workspace.h's. Bad input is refused with a
+// message naming the problem before anything is written; results of an
+// earlier run that the command would not resume are only replaced with
 // --CommunityMapper.overwrite 1.
 
 #pragma once
@@ -18,15 +26,32 @@
 
 namespace colmap {
 
-// Runs the command on parsed options (options.output_path is OUT). Returns
-// false, with the reason logged, on bad input or failure. A non-empty
-// `project_ini` is written to OUT/project.ini beside the models.
-bool RunCommunityMapperImpl(const CommunityMapperController::Options& options,
-                            bool overwrite,
-                            const std::string& project_ini = "");
+enum class CommunityMapperStage {
+  kAll,        // community_mapper
+  kPartition,  // community_partitioner
+  kCommunity,  // community_reconstructor --community_id K
+  kMerge,      // community_merger
+};
 
-// The command as registered in colmap.cc: parses the options and runs
-// RunCommunityMapperImpl.
+struct CommunityMapperCommand {
+  CommunityMapperStage stage = CommunityMapperStage::kAll;
+  CommunityMapperController::Options options;
+  // The community of kCommunity.
+  int community_id = -1;
+  // Replace the results of an earlier run (of kCommunity: that community's).
+  bool overwrite = false;
+  // Written to OUT/project.ini by the partition and the merge (if not empty).
+  std::string project_ini;
+};
+
+// Runs the command on parsed options. Returns false, with the reason
+// logged, on bad input or failure.
+bool RunCommunityMapperImpl(const CommunityMapperCommand& command);
+
+// The commands as registered in colmap.cc.
 int RunCommunityMapper(int argc, char** argv);
+int RunCommunityPartitioner(int argc, char** argv);
+int RunCommunityReconstructor(int argc, char** argv);
+int RunCommunityMerger(int argc, char** argv);
 
 }  // namespace colmap

@@ -43,6 +43,7 @@
 
 #include "colmap/geometry/sim3.h"
 #include "colmap/util/eigen_alignment.h"
+#include "colmap/util/types.h"
 
 #include <vector>
 
@@ -54,9 +55,11 @@ struct RelativeSimilarity {
   // X2 = s R X1 + t.
   Sim3d second_from_first;
   // Inlier correspondences (X1, X2); if empty, t of second_from_first is
-  // used for the translation.
+  // used for the translation. Their 3D point ids in the two models (for the
+  // merge; the averaging does not use them).
   std::vector<Eigen::Vector3d> points1;
   std::vector<Eigen::Vector3d> points2;
+  std::vector<std::pair<point3D_t, point3D_t>> point3D_ids;
   // Support (number of inlier correspondences).
   double num_inliers = 0;
 };

@@ -1,0 +1,132 @@
+// The output folder (OUT) of the community mapper and its stages.
+//
+// The community mapper runs in three stages, each reading only files that the
+// stage before it wrote, so that a killed run resumes where it stopped and a
+// cluster's scheduler can run the communities as separate jobs:
+//
+//   1. partition:    OUT/plan.txt, OUT/communities.txt
+//   2. community K:  OUT/communities/K/ (its model), then
+//                    OUT/communities/K.done (its record)
+//   3. merge:        OUT/0/, OUT/1/, ... (the merged models, largest first),
+//                    OUT/communities.ply, OUT/project.ini
+//
+// Every file and model is written under a temporary name and renamed into
+// place (atomic_output.h), and a community's record is written only after
+// its model: a record means a complete community, whatever was killed when.
+//
+// The plan records what the later stages need and what they must agree on:
+// the database (path and a fingerprint of its cameras, images and verified
+// pairs), the options in effect (as "key=value" lines), and every
+// community's images, its own and those it borrows from its neighbours.
+
+#pragma once
+
+#include "colmap/scene/database.h"
+#include "colmap/scene/reconstruction.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace colmap {
+
+// File names inside OUT.
+constexpr char kPlanFileName[] = "plan.txt";
+constexpr char kCommunitiesFileName[] = "communities.txt";
+constexpr char kCommunitiesDirName[] = "communities";
+constexpr char kCommunitiesPlyFileName[] = "communities.ply";
+constexpr char kProjectFileName[] = "project.ini";
+
+class CommunityWorkspace {
+ public:
+  explicit CommunityWorkspace(std::string output_path);
+
+  const std::string& OutputPath() const { return output_path_; }
+  std::string PlanPath() const;
+  std::string CommunitiesPath() const;
+  std::string CommunitiesDir() const;
+  std::string CommunityModelPath(int community_id) const;
+  std::string CommunityRecordPath(int community_id) const;
+  std::string MergedModelPath(int model_index) const;
+  std::string CommunitiesPlyPath() const;
+  std::string ProjectPath() const;
+
+  // Whether OUT holds results of a run (a plan, a partition, communities or
+  // merged models).
+  bool HasResults() const;
+
+  // Creates OUT if needed and checks that it is a writable folder; the
+  // problem (naming what to do about it) if not, else empty.
+  std::string CreateOutputFolder() const;
+
+  // Removes every result of an earlier run (for --overwrite).
+  void RemoveResults() const;
+
+  // Removes community K's model and record (to reconstruct it again).
+  void RemoveCommunity(int community_id) const;
+
+  // Writes the merged models as OUT/0, OUT/1, ... (each atomically) and
+  // removes numbered models of an earlier run beyond them.
+  void WriteMergedModels(
+      const std::vector<std::shared_ptr<const Reconstruction>>& models) const;
+
+  // The numbered merged models in OUT (0, 1, ...).
+  std::vector<std::string> MergedModelPaths() const;
+
+ private:
+  std::string output_path_;
+};
+
+struct CommunityPlan {
+  struct Community {
+    std::vector<std::string> own_image_names;
+    std::vector<std::string> borrowed_image_names;
+  };
+
+  std::string database_path;
+  std::string database_fingerprint;
+  // "key=value" lines of the options that shape the result.
+  std::string options;
+  std::vector<Community> communities;
+
+  int NumCommunities() const { return static_cast<int>(communities.size()); }
+};
+
+std::string CommunityPlanToText(const CommunityPlan& plan);
+
+// Parses a plan; throws std::invalid_argument naming what is malformed.
+CommunityPlan CommunityPlanFromText(const std::string& text);
+
+// A fingerprint (hex) of the database's cameras, images and verified pairs
+// (their inlier counts): what the partition and the communities depend on.
+std::string DatabaseFingerprint(const Database& database);
+
+// Why `plan` does not fit the database fingerprint and options of this run
+// (empty if it fits): the first option that differs, or the database.
+std::string PlanMismatch(const CommunityPlan& plan,
+                         const std::string& database_fingerprint,
+                         const std::string& options);
+
+// What a community's reconstruction produced (stage 2's record).
+struct CommunityRecord {
+  int community_id = -1;
+  // Images given to its mapper (its own and those it borrowed).
+  int num_images = 0;
+  // Registered images of its largest model (0: no model).
+  int num_registered = 0;
+  int num_points = 0;
+  int num_models = 0;
+  double mean_reprojection_error = 0.0;
+  double seconds = 0.0;
+  // The plan's database fingerprint, so that a record of another plan is
+  // never taken for this one's.
+  std::string database_fingerprint;
+};
+
+std::string CommunityRecordToText(const CommunityRecord& record);
+CommunityRecord CommunityRecordFromText(const std::string& text);
+
+// Reads the text file; throws if it cannot be read.
+std::string ReadTextFile(const std::string& path);
+
+}  // namespace colmap

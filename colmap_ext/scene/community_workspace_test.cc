@@ -1,0 +1,182 @@
+#include "colmap_ext/scene/community_workspace.h"
+
+#include "colmap_ext/scene/synthetic_scene.h"
+#include "colmap_ext/util/atomic_output.h"
+#include "colmap_ext/util/testing.h"
+
+#include "colmap/util/misc.h"
+
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+namespace colmap {
+namespace {
+
+CommunityPlan ExamplePlan() {
+  CommunityPlan plan;
+  plan.database_path = "/data/my scene/database.db";
+  plan.database_fingerprint = "0123456789abcdef";
+  plan.options =
+      "CommunityMapper.modularity_threshold=0.3\nMapper.min_num_matches=15\n";
+  plan.communities.resize(2);
+  plan.communities[0].own_image_names = {"a.jpg", "b c.jpg"};
+  plan.communities[0].borrowed_image_names = {"d.jpg"};
+  plan.communities[1].own_image_names = {"d.jpg", "sub/e.jpg"};
+  plan.communities[1].borrowed_image_names = {"b c.jpg"};
+  return plan;
+}
+
+TEST(CommunityPlan, TextRoundTrip) {
+  const CommunityPlan plan = ExamplePlan();
+  const CommunityPlan read = CommunityPlanFromText(CommunityPlanToText(plan));
+  EXPECT_EQ(read.database_path, plan.database_path);
+  EXPECT_EQ(read.database_fingerprint, plan.database_fingerprint);
+  EXPECT_EQ(read.options, plan.options);
+  ASSERT_EQ(read.NumCommunities(), 2);
+  for (int c = 0; c < 2; ++c) {
+    EXPECT_EQ(read.communities[c].own_image_names,
+              plan.communities[c].own_image_names);
+    EXPECT_EQ(read.communities[c].borrowed_image_names,
+              plan.communities[c].borrowed_image_names);
+  }
+}
+
+TEST(CommunityPlan, MalformedOrTruncatedPlansAreRefused) {
+  const std::string text = CommunityPlanToText(ExamplePlan());
+  // Cut before the options end.
+  EXPECT_THROW(CommunityPlanFromText(text.substr(0, text.find("end_options"))),
+               std::invalid_argument);
+  // An image of a community outside the plan.
+  EXPECT_THROW(CommunityPlanFromText(text + "image 5 own x.jpg\n"),
+               std::invalid_argument);
+  EXPECT_THROW(CommunityPlanFromText(text + "something else\n"),
+               std::invalid_argument);
+  EXPECT_THROW(CommunityPlanFromText(""), std::invalid_argument);
+}
+
+TEST(PlanMismatch, NamesTheOptionOrTheDatabase) {
+  const CommunityPlan plan = ExamplePlan();
+  EXPECT_EQ(PlanMismatch(plan, plan.database_fingerprint, plan.options), "");
+  const std::string changed_option = PlanMismatch(
+      plan,
+      plan.database_fingerprint,
+      "CommunityMapper.modularity_threshold=0.4\nMapper.min_num_matches=15\n");
+  EXPECT_NE(changed_option.find("CommunityMapper.modularity_threshold is 0.4"),
+            std::string::npos)
+      << changed_option;
+  EXPECT_NE(changed_option.find("0.3"), std::string::npos);
+  EXPECT_NE(PlanMismatch(plan, "fedcba9876543210", plan.options)
+                .find("other images or verified pairs"),
+            std::string::npos);
+  EXPECT_NE(PlanMismatch(plan,
+                         plan.database_fingerprint,
+                         "CommunityMapper.modularity_threshold=0.3\n"),
+            "");
+}
+
+TEST(DatabaseFingerprint, FollowsImagesAndVerifiedPairs) {
+  const std::string test_dir = CreateTestDir();
+  SyntheticSceneOptions options;
+  options.num_clusters = 2;
+  options.num_images_per_cluster = 6;
+  options.num_images_per_link = 4;
+  options.num_points_per_cluster = 300;
+  options.num_points_per_link = 100;
+  options.close_loop = false;
+  SyntheticScene scene;
+  Database database(JoinPaths(test_dir, "database.db"));
+  SynthesizeCommunityScene(options, &scene, &database);
+  const std::string fingerprint = DatabaseFingerprint(database);
+  EXPECT_EQ(fingerprint.size(), 16);
+  EXPECT_EQ(DatabaseFingerprint(database), fingerprint);
+
+  // One verified pair fewer.
+  std::vector<std::pair<image_t, image_t>> image_pairs;
+  std::vector<int> num_inliers;
+  database.ReadTwoViewGeometryNumInliers(&image_pairs, &num_inliers);
+  ASSERT_FALSE(image_pairs.empty());
+  TwoViewGeometry geometry =
+      database.ReadTwoViewGeometry(image_pairs[0].first, image_pairs[0].second);
+  database.DeleteInlierMatches(image_pairs[0].first, image_pairs[0].second);
+  EXPECT_NE(DatabaseFingerprint(database), fingerprint);
+  database.WriteTwoViewGeometry(
+      image_pairs[0].first, image_pairs[0].second, geometry);
+  EXPECT_EQ(DatabaseFingerprint(database), fingerprint);
+}
+
+TEST(CommunityRecord, TextRoundTrip) {
+  CommunityRecord record;
+  record.community_id = 3;
+  record.num_images = 57;
+  record.num_registered = 55;
+  record.num_points = 4242;
+  record.num_models = 2;
+  record.mean_reprojection_error = 0.812345;
+  record.seconds = 12.5;
+  record.database_fingerprint = "0123456789abcdef";
+  const CommunityRecord read =
+      CommunityRecordFromText(CommunityRecordToText(record));
+  EXPECT_EQ(read.community_id, 3);
+  EXPECT_EQ(read.num_images, 57);
+  EXPECT_EQ(read.num_registered, 55);
+  EXPECT_EQ(read.num_points, 4242);
+  EXPECT_EQ(read.num_models, 2);
+  EXPECT_NEAR(read.mean_reprojection_error, 0.812345, 1e-6);
+  EXPECT_NEAR(read.seconds, 12.5, 1e-3);
+  EXPECT_EQ(read.database_fingerprint, record.database_fingerprint);
+  EXPECT_THROW(CommunityRecordFromText("community 3\n"), std::invalid_argument);
+}
+
+TEST(CommunityWorkspace, ResultsAreFoundAndRemoved) {
+  const std::string test_dir = CreateTestDir();
+  const CommunityWorkspace workspace(JoinPaths(test_dir, "out"));
+  EXPECT_EQ(workspace.CreateOutputFolder(), "");
+  EXPECT_FALSE(workspace.HasResults());
+
+  Reconstruction model;
+  model.AddCamera(Camera::CreateFromModelName(1, "PINHOLE", 100, 64, 48));
+  std::vector<std::shared_ptr<const Reconstruction>> models = {
+      std::make_shared<Reconstruction>(model),
+      std::make_shared<Reconstruction>(model),
+      std::make_shared<Reconstruction>(model)};
+  workspace.WriteMergedModels(models);
+  EXPECT_TRUE(workspace.HasResults());
+  EXPECT_EQ(workspace.MergedModelPaths().size(), 3);
+  // A later merge with fewer models leaves no stale model behind.
+  models.pop_back();
+  workspace.WriteMergedModels(models);
+  EXPECT_EQ(workspace.MergedModelPaths().size(), 2);
+  EXPECT_FALSE(ExistsDir(workspace.MergedModelPath(2)));
+
+  CreateDirIfNotExists(workspace.CommunitiesDir());
+  WriteReconstructionAtomically(model, workspace.CommunityModelPath(0));
+  WriteTextFileAtomically("x", workspace.CommunityRecordPath(0));
+  WriteReconstructionAtomically(model, workspace.CommunityModelPath(1));
+  WriteTextFileAtomically("x", workspace.CommunityRecordPath(1));
+  workspace.RemoveCommunity(0);
+  EXPECT_FALSE(ExistsFile(workspace.CommunityRecordPath(0)));
+  EXPECT_FALSE(ExistsDir(workspace.CommunityModelPath(0)));
+  EXPECT_TRUE(ExistsFile(workspace.CommunityRecordPath(1)));
+
+  WriteTextFileAtomically("plan", workspace.PlanPath());
+  WriteTextFileAtomically("ini", workspace.ProjectPath());
+  workspace.RemoveResults();
+  EXPECT_FALSE(workspace.HasResults());
+  EXPECT_FALSE(ExistsFile(workspace.PlanPath()));
+  EXPECT_FALSE(ExistsDir(workspace.CommunitiesDir()));
+  EXPECT_TRUE(workspace.MergedModelPaths().empty());
+}
+
+TEST(CommunityWorkspace, OutputFolderProblemsAreNamed) {
+  const std::string test_dir = CreateTestDir();
+  const std::string file = JoinPaths(test_dir, "a-file");
+  std::ofstream(file) << "x";
+  EXPECT_NE(CommunityWorkspace(file).CreateOutputFolder().find(
+                "is a file, not a folder"),
+            std::string::npos);
+  EXPECT_NE(CommunityWorkspace("").CreateOutputFolder(), "");
+}
+
+}  // namespace
+}  // namespace colmap

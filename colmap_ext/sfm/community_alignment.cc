@@ -1,0 +1,178 @@
+#include "colmap_ext/sfm/community_alignment.h"
+
+#include "colmap/util/logging.h"
+#include "colmap/util/misc.h"
+
+#include <set>
+#include <string>
+
+namespace colmap {
+
+CrossEdges GroupCrossEdges(
+    const ViewGraph& view_graph,
+    const std::unordered_map<image_t, int>& community_of_image) {
+  CrossEdges cross_edges;
+  for (const ViewGraph::Edge& edge : view_graph.Edges()) {
+    image_t image_id1 = view_graph.ImageIds()[edge.vertex1];
+    image_t image_id2 = view_graph.ImageIds()[edge.vertex2];
+    const auto it1 = community_of_image.find(image_id1);
+    const auto it2 = community_of_image.find(image_id2);
+    if (it1 == community_of_image.end() || it2 == community_of_image.end() ||
+        it1->second == it2->second) {
+      continue;
+    }
+    int community1 = it1->second;
+    int community2 = it2->second;
+    if (community1 > community2) {
+      std::swap(community1, community2);
+      std::swap(image_id1, image_id2);
+    }
+    cross_edges[{community1, community2}].emplace_back(image_id1, image_id2);
+  }
+  return cross_edges;
+}
+
+CommunitySimilarities EstimateCommunitySimilarities(
+    const Database& database,
+    const ViewGraph& view_graph,
+    const CrossEdges& cross_edges,
+    const std::vector<std::shared_ptr<const Reconstruction>>& models,
+    const PairwiseSimilarityOptions& pairwise_options,
+    const CovisibilityCheckOptions& covisibility_options) {
+  std::unordered_set<image_pair_t> verified_pairs;
+  for (const ViewGraph::Edge& edge : view_graph.Edges()) {
+    verified_pairs.insert(
+        Database::ImagePairToPairId(view_graph.ImageIds()[edge.vertex1],
+                                    view_graph.ImageIds()[edge.vertex2]));
+  }
+  const auto is_verified_pair = [&verified_pairs](const image_t image_id1,
+                                                  const image_t image_id2) {
+    return verified_pairs.count(
+               Database::ImagePairToPairId(image_id1, image_id2)) > 0;
+  };
+
+  CommunitySimilarities result;
+  for (const auto& pair_and_edges : cross_edges) {
+    const int community1 = pair_and_edges.first.first;
+    const int community2 = pair_and_edges.first.second;
+    THROW_CHECK_LT(community2, models.size());
+    if (!models[community1] || !models[community2]) {
+      continue;
+    }
+    const Reconstruction& model1 = *models[community1];
+    const Reconstruction& model2 = *models[community2];
+
+    // Images on the border that both models registered: each of their
+    // keypoints with a 3D point in both is a correspondence.
+    std::vector<CrossPairMatches> cross_pairs;
+    for (const image_t image_id : model1.RegImageIds()) {
+      if (model2.ExistsImage(image_id) && model2.IsImageRegistered(image_id)) {
+        CrossPairMatches shared;
+        shared.image_id1 = image_id;
+        shared.image_id2 = image_id;
+        for (point2D_t idx = 0; idx < model1.Image(image_id).NumPoints2D();
+             ++idx) {
+          shared.matches.emplace_back(idx, idx);
+        }
+        cross_pairs.push_back(std::move(shared));
+      }
+    }
+    const size_t num_shared_images = cross_pairs.size();
+    for (const auto& image_pair : pair_and_edges.second) {
+      CrossPairMatches cross_pair;
+      cross_pair.image_id1 = image_pair.first;
+      cross_pair.image_id2 = image_pair.second;
+      cross_pair.matches =
+          database.ReadTwoViewGeometry(image_pair.first, image_pair.second)
+              .inlier_matches;
+      cross_pairs.push_back(std::move(cross_pair));
+    }
+    const PointCorrespondences correspondences =
+        FindPointCorrespondences(model1, model2, cross_pairs);
+
+    CovisibilityCheck covisibility;
+    std::set<std::pair<point3D_t, point3D_t>> rejected_inliers;
+    std::string rejected;
+    int num_rejected = 0;
+    const PairwiseSimilarity similarity = EstimatePairwiseSimilarity(
+        correspondences,
+        pairwise_options,
+        [&](const PairwiseSimilarity& candidate) {
+          covisibility = CheckCovisibility(model1,
+                                           model2,
+                                           candidate.second_from_first,
+                                           is_verified_pair,
+                                           covisibility_options);
+          if (!covisibility.consistent) {
+            rejected_inliers.insert(candidate.inlier_point3D_ids.begin(),
+                                    candidate.inlier_point3D_ids.end());
+            rejected += StringPrintf(
+                " [%d inliers rejected: co-visible pairs verified %d of %d "
+                "across, %d of %d inside]",
+                candidate.num_inliers,
+                covisibility.num_verified_cross_pairs,
+                covisibility.num_predicted_cross_pairs,
+                covisibility.num_verified_internal_pairs,
+                covisibility.num_predicted_internal_pairs);
+          }
+          return covisibility.consistent;
+        },
+        &num_rejected);
+    LOG(INFO) << StringPrintf(
+        "Communities %d-%d: %d shared images, %d cross edges, %d point "
+        "correspondences%s -> %s",
+        community1,
+        community2,
+        static_cast<int>(num_shared_images),
+        static_cast<int>(pair_and_edges.second.size()),
+        static_cast<int>(correspondences.Size()),
+        rejected.c_str(),
+        similarity.success
+            ? StringPrintf("%d inliers, scale %.4f, co-visible pairs "
+                           "verified %d of %d across, %d of %d inside: used",
+                           similarity.num_inliers,
+                           similarity.second_from_first.scale,
+                           covisibility.num_verified_cross_pairs,
+                           covisibility.num_predicted_cross_pairs,
+                           covisibility.num_verified_internal_pairs,
+                           covisibility.num_predicted_internal_pairs)
+                  .c_str()
+        : num_rejected > 0 ? "no transform explains the matches, not used"
+                           : "too little support, not used");
+
+    // The cross pairs whose linked points mostly supported rejected
+    // transforms are false (on generated landmarks with identical towers,
+    // leaving them in the refinement took the median camera error from 0.03
+    // to 0.19 m).
+    if (!rejected_inliers.empty()) {
+      for (size_t k = num_shared_images; k < cross_pairs.size(); ++k) {
+        const PointCorrespondences pair_points =
+            FindPointCorrespondences(model1, model2, {cross_pairs[k]});
+        size_t num_rejected_points = 0;
+        for (size_t i = 0; i < pair_points.Size(); ++i) {
+          num_rejected_points += rejected_inliers.count(
+              {pair_points.point3D_ids1[i], pair_points.point3D_ids2[i]});
+        }
+        if (2 * num_rejected_points > pair_points.Size()) {
+          result.false_pairs.insert(Database::ImagePairToPairId(
+              cross_pairs[k].image_id1, cross_pairs[k].image_id2));
+        }
+      }
+    }
+    if (!similarity.success) {
+      continue;
+    }
+    RelativeSimilarity relative;
+    relative.community1 = community1;
+    relative.community2 = community2;
+    relative.second_from_first = similarity.second_from_first;
+    relative.points1 = similarity.inlier_points1;
+    relative.points2 = similarity.inlier_points2;
+    relative.point3D_ids = similarity.inlier_point3D_ids;
+    relative.num_inliers = similarity.num_inliers;
+    result.similarities.push_back(std::move(relative));
+  }
+  return result;
+}
+
+}  // namespace colmap

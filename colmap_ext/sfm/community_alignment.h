@@ -1,0 +1,64 @@
+// Pairwise similarities between the models of connected communities.
+//
+// CSfM (Cui et al., ICIP 2017), section 3: "given the co-visible 3D points
+// between a pair of connected communities, RANSAC is used to estimate a 3D
+// similarity transformation". Two communities are connected where the view
+// graph has edges between their images (cross edges). Their co-visible
+// points come from the verified matches of those edges and from the images
+// both models registered (image_overlap): see pairwise_similarity.h.
+//
+// Every similarity is checked against the image pairs the matcher verified
+// (covisibility_check.h); a rejected one gives way to the next estimated
+// from its outliers, up to PairwiseSimilarityOptions::max_num_hypotheses.
+// The cross pairs whose matches mostly supported rejected transforms (e.g.
+// matches between two identical facades) are reported as false pairs: the
+// merged model's refinement must not re-introduce them as tracks.
+
+#pragma once
+
+#include "colmap_ext/graph/view_graph.h"
+#include "colmap_ext/sfm/covisibility_check.h"
+#include "colmap_ext/sfm/pairwise_similarity.h"
+#include "colmap_ext/sfm/similarity_averaging.h"
+
+#include "colmap/scene/database.h"
+#include "colmap/scene/reconstruction.h"
+
+#include <map>
+#include <memory>
+#include <unordered_map>
+#include <unordered_set>
+#include <vector>
+
+namespace colmap {
+
+// View-graph edges between communities, by community pair (the smaller id
+// first), each as the pair of its images in that order.
+using CrossEdges =
+    std::map<std::pair<int, int>, std::vector<std::pair<image_t, image_t>>>;
+
+// Images without a community are left out.
+CrossEdges GroupCrossEdges(
+    const ViewGraph& view_graph,
+    const std::unordered_map<image_t, int>& community_of_image);
+
+struct CommunitySimilarities {
+  // One per community pair with a usable similarity (with its inliers'
+  // point ids).
+  std::vector<RelativeSimilarity> similarities;
+  // Cross pairs whose matches mostly support rejected transforms.
+  std::unordered_set<image_pair_t> false_pairs;
+};
+
+// The similarities of every pair of communities that cross edges join and
+// both of which have a model (models[c] may be null). The cross edges'
+// matches are read from the database.
+CommunitySimilarities EstimateCommunitySimilarities(
+    const Database& database,
+    const ViewGraph& view_graph,
+    const CrossEdges& cross_edges,
+    const std::vector<std::shared_ptr<const Reconstruction>>& models,
+    const PairwiseSimilarityOptions& pairwise_options,
+    const CovisibilityCheckOptions& covisibility_options);
+
+}  // namespace colmap

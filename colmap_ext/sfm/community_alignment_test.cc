@@ -1,0 +1,127 @@
+#include "colmap_ext/sfm/community_alignment.h"
+
+#include "colmap_ext/scene/synthetic_scene.h"
+#include "colmap_ext/util/testing.h"
+
+#include "colmap/util/misc.h"
+
+#include <gtest/gtest.h>
+
+namespace colmap {
+namespace {
+
+TEST(GroupCrossEdges, GroupsEdgesBetweenCommunitiesSmallerIdFirst) {
+  // Images 1-2 in community 1, 3-4 in community 0, image 5 in none.
+  const ViewGraph view_graph =
+      ViewGraph::Create({{1, 2}, {2, 3}, {4, 1}, {3, 4}, {4, 5}, {2, 4}},
+                        {50, 50, 50, 50, 50, 10},
+                        /*min_num_matches=*/15);
+  const CrossEdges cross_edges =
+      GroupCrossEdges(view_graph, {{1, 1}, {2, 1}, {3, 0}, {4, 0}});
+  ASSERT_EQ(cross_edges.size(), 1);
+  const auto& edges = cross_edges.at({0, 1});
+  // Each pair with the image of community 0 first; the edge 2-4 has too few
+  // matches to be in the view graph.
+  ASSERT_EQ(edges.size(), 2);
+  std::set<std::pair<image_t, image_t>> pairs(edges.begin(), edges.end());
+  EXPECT_EQ(pairs, (std::set<std::pair<image_t, image_t>>{{3, 2}, {4, 1}}));
+}
+
+class EstimateCommunitySimilaritiesTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    SyntheticSceneOptions options;
+    options.num_clusters = 2;
+    options.num_images_per_cluster = 14;
+    options.num_images_per_link = 10;
+    options.num_points_per_cluster = 1500;
+    options.num_points_per_link = 600;
+    options.close_loop = false;
+    options.keypoint_noise = 0.3;
+    options.seed = 21;
+    database_ =
+        std::make_unique<Database>(JoinPaths(CreateTestDir(), "database.db"));
+    SynthesizeCommunityScene(options, &scene_, database_.get());
+    view_graph_ = ViewGraph::Read(*database_, 15);
+    // Cluster 1 is community 1; cluster 0 and the walkway, community 0.
+    for (const auto& image_and_cluster : scene_.image_cluster) {
+      community_of_image_[image_and_cluster.first] =
+          image_and_cluster.second == 1 ? 1 : 0;
+    }
+    world_to_community_ = {Sim3d(0.5,
+                                 Eigen::Quaterniond(Eigen::AngleAxisd(
+                                     0.4, Eigen::Vector3d::UnitY())),
+                                 Eigen::Vector3d(3, 0, -1)),
+                           Sim3d(2.0,
+                                 Eigen::Quaterniond(Eigen::AngleAxisd(
+                                     -1.0, Eigen::Vector3d::UnitZ())),
+                                 Eigen::Vector3d(0, 10, 0))};
+  }
+
+  // The ground truth of community c's images, in its own frame.
+  std::shared_ptr<const Reconstruction> CommunityModel(const int c) const {
+    auto model = std::make_shared<Reconstruction>(scene_.ground_truth);
+    for (const image_t image_id : scene_.ground_truth.RegImageIds()) {
+      if (community_of_image_.at(image_id) != c) {
+        model->DeRegisterImage(image_id);
+      }
+    }
+    model->Transform(world_to_community_[c]);
+    return model;
+  }
+
+  SyntheticScene scene_;
+  std::unique_ptr<Database> database_;
+  ViewGraph view_graph_;
+  std::unordered_map<image_t, int> community_of_image_;
+  std::vector<Sim3d> world_to_community_;
+};
+
+TEST_F(EstimateCommunitySimilaritiesTest, RecoversTheRelativeSimilarity) {
+  const CrossEdges cross_edges =
+      GroupCrossEdges(view_graph_, community_of_image_);
+  ASSERT_EQ(cross_edges.size(), 1);
+  const CommunitySimilarities result =
+      EstimateCommunitySimilarities(*database_,
+                                    view_graph_,
+                                    cross_edges,
+                                    {CommunityModel(0), CommunityModel(1)},
+                                    PairwiseSimilarityOptions(),
+                                    CovisibilityCheckOptions());
+  ASSERT_EQ(result.similarities.size(), 1);
+  EXPECT_TRUE(result.false_pairs.empty());
+  const RelativeSimilarity& similarity = result.similarities[0];
+  EXPECT_EQ(similarity.community1, 0);
+  EXPECT_EQ(similarity.community2, 1);
+  const Sim3d expected =
+      world_to_community_[1] * Inverse(world_to_community_[0]);
+  EXPECT_NEAR(similarity.second_from_first.scale, expected.scale, 1e-2);
+  EXPECT_LT(
+      similarity.second_from_first.rotation.angularDistance(expected.rotation),
+      1e-2);
+  EXPECT_LT(
+      (similarity.second_from_first.translation - expected.translation).norm(),
+      0.1);
+  // Every inlier pair names points of the two models.
+  ASSERT_EQ(similarity.point3D_ids.size(), similarity.points1.size());
+  ASSERT_GE(similarity.num_inliers,
+            PairwiseSimilarityOptions().min_num_inliers);
+  const auto model0 = CommunityModel(0);
+  for (const auto& ids : similarity.point3D_ids) {
+    EXPECT_TRUE(model0->ExistsPoint3D(ids.first));
+  }
+}
+
+TEST_F(EstimateCommunitySimilaritiesTest, CommunityWithoutModelHasNone) {
+  const CommunitySimilarities result = EstimateCommunitySimilarities(
+      *database_,
+      view_graph_,
+      GroupCrossEdges(view_graph_, community_of_image_),
+      {CommunityModel(0), nullptr},
+      PairwiseSimilarityOptions(),
+      CovisibilityCheckOptions());
+  EXPECT_TRUE(result.similarities.empty());
+}
+
+}  // namespace
+}  // namespace colmap

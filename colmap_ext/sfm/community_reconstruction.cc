@@ -1,0 +1,76 @@
+#include "colmap_ext/sfm/community_reconstruction.h"
+
+#include "colmap/math/random.h"
+#include "colmap/scene/reconstruction_manager.h"
+#include "colmap/util/logging.h"
+
+#include <chrono>
+#include <thread>
+
+namespace colmap {
+
+CommunityReconstruction ReconstructCommunity(
+    std::shared_ptr<const IncrementalMapperOptions> options,
+    const std::string& image_path,
+    const std::string& database_path,
+    std::mutex* database_mutex) {
+  THROW_CHECK_NOTNULL(database_mutex);
+  SetPRNGSeed(kDefaultPRNGSeed);
+  auto reconstruction_manager = std::make_shared<ReconstructionManager>();
+  IncrementalMapperController mapper(
+      options, image_path, database_path, reconstruction_manager);
+
+  constexpr int kMaxNumLoadAttempts = 5;
+  for (int attempt = 1;; ++attempt) {
+    bool loaded = false;
+    try {
+      std::lock_guard<std::mutex> lock(*database_mutex);
+      loaded = mapper.LoadDatabase();
+    } catch (const std::exception& error) {
+      // E.g. "database is locked" while another process opens it.
+      LOG(WARNING) << "Loading " << database_path
+                   << " failed: " << error.what();
+    }
+    if (loaded) {
+      break;
+    }
+    if (attempt == kMaxNumLoadAttempts) {
+      LOG(WARNING) << "No images with matches could be loaded from "
+                   << database_path;
+      return CommunityReconstruction();
+    }
+    LOG(WARNING) << "Loading the database found nothing (is another process "
+                    "opening it?); trying again in "
+                 << attempt << "s";
+    std::this_thread::sleep_for(std::chrono::seconds(attempt));
+  }
+
+  // As IncrementalMapperController::Run: where no initial pair is found,
+  // relax the constraints.
+  IncrementalMapper::Options init_options = options->Mapper();
+  mapper.Reconstruct(init_options);
+  constexpr int kNumInitRelaxations = 2;
+  for (int i = 0;
+       i < kNumInitRelaxations && reconstruction_manager->Size() == 0;
+       ++i) {
+    init_options.init_min_num_inliers /= 2;
+    mapper.Reconstruct(init_options);
+    if (reconstruction_manager->Size() > 0) {
+      break;
+    }
+    init_options.init_min_tri_angle /= 2;
+    mapper.Reconstruct(init_options);
+  }
+
+  CommunityReconstruction result;
+  result.num_models = static_cast<int>(reconstruction_manager->Size());
+  for (size_t i = 0; i < reconstruction_manager->Size(); ++i) {
+    const auto& model = reconstruction_manager->Get(i);
+    if (!result.model || model->NumRegImages() > result.model->NumRegImages()) {
+      result.model = model;
+    }
+  }
+  return result;
+}
+
+}  // namespace colmap

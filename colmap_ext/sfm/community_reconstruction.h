@@ -1,0 +1,43 @@
+// One community reconstructed by COLMAP's incremental mapper.
+//
+// CSfM (Cui et al., ICIP 2017), section 2.2: each community is reconstructed
+// on its own by incremental SfM. This is COLMAP's
+// IncrementalMapperController on the community's images (its own and those
+// it borrows from its neighbours), with two differences that let several
+// communities, in threads or in processes, share one database:
+//   - the database is loaded under `database_mutex` (shared by the threads
+//     of one process; COLMAP's Database sets no SQLite busy timeout, so two
+//     connections opening it together fail with "database is locked"), and
+//     a load that found nothing is retried a few times (for other
+//     processes, e.g. the jobs of a cluster's job array);
+//   - the random number generator of the reconstructing thread is seeded
+//     anew, so that a community gives the same model whichever worker,
+//     thread or process reconstructs it (with one thread per community).
+// Where the mapper makes several models, the largest is the community's.
+
+#pragma once
+
+#include "colmap/controllers/incremental_mapper.h"
+#include "colmap/scene/reconstruction.h"
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+namespace colmap {
+
+struct CommunityReconstruction {
+  // The largest model (nullptr if the mapper made none).
+  std::shared_ptr<Reconstruction> model;
+  // Models the mapper made.
+  int num_models = 0;
+};
+
+// `options.image_names` holds the community's images.
+CommunityReconstruction ReconstructCommunity(
+    std::shared_ptr<const IncrementalMapperOptions> options,
+    const std::string& image_path,
+    const std::string& database_path,
+    std::mutex* database_mutex);
+
+}  // namespace colmap

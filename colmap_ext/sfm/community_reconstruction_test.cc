@@ -1,0 +1,96 @@
+#include "colmap_ext/sfm/community_reconstruction.h"
+
+#include "colmap_ext/scene/synthetic_scene.h"
+#include "colmap_ext/util/testing.h"
+
+#include "colmap/math/random.h"
+#include "colmap/scene/database.h"
+#include "colmap/util/misc.h"
+
+#include <thread>
+
+#include <gtest/gtest.h>
+
+namespace colmap {
+namespace {
+
+class ReconstructCommunityTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    SyntheticSceneOptions options;
+    options.num_clusters = 2;
+    options.num_images_per_cluster = 16;
+    options.num_images_per_link = 6;
+    options.num_points_per_cluster = 1500;
+    options.num_points_per_link = 300;
+    options.close_loop = false;
+    options.seed = 5;
+    database_path_ = JoinPaths(CreateTestDir(), "database.db");
+    Database database(database_path_);
+    SynthesizeCommunityScene(options, &scene_, &database);
+    auto mapper_options = std::make_shared<IncrementalMapperOptions>();
+    mapper_options->num_threads = 1;
+    for (const auto& image_and_cluster : scene_.image_cluster) {
+      if (image_and_cluster.second == 0) {
+        mapper_options->image_names.insert(
+            scene_.ground_truth.Image(image_and_cluster.first).Name());
+      }
+    }
+    options_ = mapper_options;
+  }
+
+  SyntheticScene scene_;
+  std::string database_path_;
+  std::shared_ptr<const IncrementalMapperOptions> options_;
+};
+
+TEST_F(ReconstructCommunityTest, ReconstructsOnlyTheCommunitysImages) {
+  std::mutex database_mutex;
+  const CommunityReconstruction result =
+      ReconstructCommunity(options_, "", database_path_, &database_mutex);
+  ASSERT_TRUE(result.model);
+  EXPECT_GE(result.num_models, 1);
+  EXPECT_EQ(result.model->NumRegImages(), options_->image_names.size());
+  for (const image_t image_id : result.model->RegImageIds()) {
+    EXPECT_EQ(options_->image_names.count(result.model->Image(image_id).Name()),
+              1);
+  }
+}
+
+// The same community gives the same model whichever thread reconstructs it
+// and whatever that thread did before: what lets a cluster's jobs replace
+// the built-in workers.
+TEST_F(ReconstructCommunityTest, SameModelInAnyThread) {
+  std::mutex database_mutex;
+  const CommunityReconstruction first =
+      ReconstructCommunity(options_, "", database_path_, &database_mutex);
+  CommunityReconstruction second;
+  std::thread thread([&] {
+    // Draw from this thread's random number generator first.
+    RandomUniformInteger<int>(0, 100);
+    second =
+        ReconstructCommunity(options_, "", database_path_, &database_mutex);
+  });
+  thread.join();
+  ASSERT_TRUE(first.model && second.model);
+  ASSERT_EQ(first.model->NumRegImages(), second.model->NumRegImages());
+  for (const image_t image_id : first.model->RegImageIds()) {
+    const Image& image1 = first.model->Image(image_id);
+    const Image& image2 = second.model->Image(image_id);
+    EXPECT_LT((image1.ProjectionCenter() - image2.ProjectionCenter()).norm(),
+              1e-9);
+  }
+}
+
+TEST_F(ReconstructCommunityTest, NoImagesWithMatchesGivesNoModel) {
+  auto options = std::make_shared<IncrementalMapperOptions>(*options_);
+  options->image_names = {"no-such-image.jpg"};
+  std::mutex database_mutex;
+  const CommunityReconstruction result =
+      ReconstructCommunity(options, "", database_path_, &database_mutex);
+  EXPECT_FALSE(result.model);
+  EXPECT_EQ(result.num_models, 0);
+}
+
+}  // namespace
+}  // namespace colmap
