@@ -59,6 +59,7 @@ BUILD = os.environ.get("BUILD_DIR", os.path.join(ROOT, "build"))
 COLMAP = os.path.join(BUILD, "colmap")
 SCENE_GENERATOR = os.path.join(BUILD, "scene_generator")
 MODEL_EVALUATOR = os.path.join(BUILD, "model_evaluator")
+PARTITION_BENCHMARK = os.path.join(BUILD, "partition_benchmark")
 
 # Generated scenes: the scene generator's knobs.
 SCENES = {
@@ -163,13 +164,39 @@ def read_communities(path):
     return communities
 
 
-def community_phases(log_path):
+def community_phases(run_dir):
+    """Phase seconds by snake-case name, from OUT/summary.txt."""
     phases = {}
-    for line in open(log_path, errors="replace"):
-        match = re.search(r"\] Time ([A-Za-z ]+):\s+([0-9.]+)s", line)
-        if match:
-            phases[match.group(1).strip()] = float(match.group(2))
+    path = os.path.join(run_dir, "summary.txt")
+    if os.path.exists(path):
+        for line in open(path):
+            fields = line.split()
+            if len(fields) == 3 and fields[0] == "phase_seconds":
+                phases[fields[1]] = float(fields[2])
     return phases
+
+
+def partition_graph_section(num_images):
+    """Community detection alone on a generated view graph of num_images."""
+    log(f"== Partition of a generated view graph of {num_images} images")
+    output = subprocess.run(
+        [PARTITION_BENCHMARK, "--num_images", str(num_images)],
+        check=True, capture_output=True, text=True).stdout
+    figures = {}
+    for line in output.splitlines():
+        key, value = line.split()
+        figures[key] = float(value)
+    log(f"   -> {figures['partition_seconds']:.1f}s, "
+        f"{int(figures['num_communities'])} communities")
+    return (f"\n### Partition of a generated view graph\n\n"
+            f"{int(figures['num_images'])} images, "
+            f"{int(figures['num_edges'])} edges (places of 100 images linked "
+            f"by walkways; build/partition_benchmark): community detection "
+            f"took {figures['partition_seconds']:.1f} s "
+            f"({int(figures['num_splits'])} splits, "
+            f"{int(figures['num_communities'])} communities, Qmax "
+            f"{figures['max_modularity']:.3f}), peak memory "
+            f"{figures['peak_memory_mb']:.0f} MB.\n")
 
 
 def generate_scene(name, out_dir):
@@ -276,9 +303,8 @@ def run_scene(name, out_dir, threads, methods):
             p90_pos_err_frac=figures["p90_position_error_fraction"],
             median_rot_err_deg=figures["median_rotation_error_deg"])
         if method == "community":
-            for phase, seconds in community_phases(log_path).items():
-                row["phase_" + phase.lower().replace(" ", "_") + "_s"] = \
-                    seconds
+            for phase, seconds in community_phases(run_dir).items():
+                row["phase_" + phase + "_s"] = seconds
             communities_path = os.path.join(run_dir, "communities.txt")
             communities = read_communities(communities_path) \
                 if os.path.exists(communities_path) else {}
@@ -504,6 +530,11 @@ def main():
                         help="output folder (default: benchmark/)")
     parser.add_argument("--threads", type=int, default=os.cpu_count(),
                         help="threads for colmap mapper")
+    parser.add_argument("--partition_graph", type=int, default=0,
+                        metavar="N",
+                        help="also time community detection alone on a "
+                        "generated view graph of N images (e.g. 100000; "
+                        "build/partition_benchmark)")
     parser.add_argument("--methods", default=",".join(METHODS),
                         help="comma-separated subset of " + ",".join(METHODS) +
                         " (community always runs: hier_fair needs its "
@@ -517,8 +548,9 @@ def main():
         methods.append("community")
     methods = [method for method in METHODS if method in methods]
     scenes = []
+    default_scenes = [] if arguments.partition_graph else ["small", "medium"]
     for scene in (["quick"] if arguments.quick else
-                  (arguments.scenes or ["small", "medium"])):
+                  (arguments.scenes or default_scenes)):
         for member in GROUPS.get(scene, [scene]):
             if member not in SCENES and member not in REAL:
                 parser.error(f"unknown scene {member}")
@@ -551,10 +583,13 @@ def main():
         writer = csv.DictWriter(file, fieldnames=fields)
         writer.writeheader()
         writer.writerows(rows)
-    table = markdown(rows, scene_knobs)
+    table = markdown(rows, scene_knobs) if rows else ""
+    if arguments.partition_graph > 0:
+        table += partition_graph_section(arguments.partition_graph)
     with open(os.path.join(arguments.out, "results.md"), "w") as file:
         file.write("# community_mapper benchmark\n\n" + table + "\n")
-    plot(rows, scene_knobs, arguments.out)
+    if rows:
+        plot(rows, scene_knobs, arguments.out)
     print(table)
     log(f"Results in {arguments.out}: results.md, results.csv, "
         f"time_vs_images.png, cameras_<scene>.png")

@@ -282,7 +282,7 @@ TEST_F(CommunityMapperEndToEnd, ProjectFileReproducesTheRun) {
 // halves that two workers reconstruct, and the result is as good as the
 // incremental mapper's.
 TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
-  const std::string test_dir = CreateTestDir();
+  const std::string test_dir = CreateTestFolder();
   const Scene scene = GenerateScene(
       JoinPaths(test_dir, "scene"),
       "--num_clusters 1 --num_images_per_cluster 50 --keypoint_noise 0.7 "
@@ -327,7 +327,7 @@ TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
 // Two landmarks that no camera links: two view-graph components, so two
 // models, largest first, each image in exactly one.
 TEST(CommunityMapperComponents, EachComponentIsItsOwnModel) {
-  const std::string test_dir = CreateTestDir();
+  const std::string test_dir = CreateTestFolder();
   const Scene scene = GenerateScene(
       JoinPaths(test_dir, "scene"),
       "--num_clusters 2 --num_images_per_cluster 25 --num_images_per_link 0 "
@@ -358,7 +358,7 @@ TEST(CommunityMapperComponents, EachComponentIsItsOwnModel) {
 // transform that stacks one tower on the other. Folding them into one model
 // would be wrong: two models, each of one landmark.
 TEST(CommunityMapperRepeatedStructure, IdenticalTowersAreNotStacked) {
-  const std::string test_dir = CreateTestDir();
+  const std::string test_dir = CreateTestFolder();
   const Scene scene = GenerateScene(
       JoinPaths(test_dir, "scene"),
       "--num_clusters 2 --num_images_per_cluster 40 --num_images_per_link 0 "
@@ -404,7 +404,7 @@ TEST(CommunityMapperRepeatedStructure, IdenticalTowersAreNotStacked) {
 // transform is rejected, the next one (the walkway's) is used, and the loop
 // closes into one accurate model.
 TEST(CommunityMapperRepeatedStructure, TrueLinksWinOverIdenticalTowers) {
-  const std::string test_dir = CreateTestDir();
+  const std::string test_dir = CreateTestFolder();
   const Scene scene = GenerateScene(
       JoinPaths(test_dir, "scene"),
       "--num_clusters 3 --num_images_per_cluster 40 --num_images_per_link 25 "

@@ -72,7 +72,7 @@ void CreateDatabase(const std::string& path,
 class CommunityMapperInputTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    test_dir_ = CreateTestDir();
+    test_dir_ = CreateTestFolder();
     image_path_ = JoinPaths(test_dir_, "images");
     CreateDirIfNotExists(image_path_);
     output_path_ = JoinPaths(test_dir_, "out");

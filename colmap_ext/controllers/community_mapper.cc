@@ -5,6 +5,7 @@
 #include "colmap_ext/sfm/community_reconstruction.h"
 #include "colmap_ext/util/atomic_output.h"
 #include "colmap_ext/util/log_tag.h"
+#include "colmap_ext/util/process_memory.h"
 
 #include "colmap/math/math.h"
 #include "colmap/math/random.h"
@@ -22,6 +23,12 @@ namespace colmap {
 namespace {
 
 using Models = std::vector<std::shared_ptr<Reconstruction>>;
+
+// Where the memory stands after a step (for a long run's log).
+void LogMemory(const std::string& step) {
+  LOG(INFO) << "Memory after " << step << ": "
+            << ProcessMemoryToString(ReadProcessMemory());
+}
 
 // The images of every community, by the plan: its own (by id) and those its
 // reconstruction uses, its own and borrowed (by name).
@@ -76,6 +83,7 @@ std::shared_ptr<Reconstruction> MergePart(
     const SimilarityAveragingResult& averaging,
     const std::unordered_set<std::string>& extra_image_names,
     const std::unordered_set<image_pair_t>& false_pairs,
+    const ViewGraph& view_graph,
     Models* models,
     double* refinement_seconds) {
   LOG(INFO) << "Merging communities" << [&] {
@@ -101,24 +109,23 @@ std::shared_ptr<Reconstruction> MergePart(
       part_image_names.insert(communities.name_of_image.at(image_id));
     }
   }
-  std::shared_ptr<DatabaseCache> database_cache;
-  {
-    const Database database(options.database_path);
-    database_cache = DatabaseCache::Create(
-        database,
-        static_cast<size_t>(options.MinNumMatches()),
-        options.incremental_options.ignore_watermarks,
-        part_image_names,
-        [&false_pairs](const image_t image_id1, const image_t image_id2) {
-          return false_pairs.count(
-                     Database::ImagePairToPairId(image_id1, image_id2)) == 0;
-        });
-  }
   // An image left without any pair (all contradicting the merge) cannot be
-  // refined: it stays out.
+  // refined: it stays out. (The view graph tells, before the models are
+  // joined and released, which images the correspondences will hold.)
+  std::unordered_set<image_t> connected_image_ids;
+  for (const ViewGraph::Edge& edge : view_graph.Edges()) {
+    const image_t image_id1 = view_graph.ImageIds()[edge.vertex1];
+    const image_t image_id2 = view_graph.ImageIds()[edge.vertex2];
+    if (part_image_names.count(view_graph.ImageNames()[edge.vertex1]) &&
+        part_image_names.count(view_graph.ImageNames()[edge.vertex2]) &&
+        !false_pairs.count(Database::ImagePairToPairId(image_id1, image_id2))) {
+      connected_image_ids.insert(image_id1);
+      connected_image_ids.insert(image_id2);
+    }
+  }
   for (std::unordered_set<image_t>& image_ids : owned_image_ids) {
     for (auto it = image_ids.begin(); it != image_ids.end();) {
-      if (database_cache->ExistsImage(*it)) {
+      if (connected_image_ids.count(*it)) {
         ++it;
       } else {
         LOG(WARNING) << "Image " << communities.name_of_image.at(*it)
@@ -165,6 +172,28 @@ std::shared_ptr<Reconstruction> MergePart(
       static_cast<int>(merged->NumRegImages()),
       static_cast<int>(merged->NumPoints3D()),
       static_cast<int>(num_merged_points));
+  LogMemory("joining the models");
+
+  // The correspondences, once the communities' models are released.
+  std::shared_ptr<DatabaseCache> database_cache;
+  {
+    const Database database(options.database_path);
+    database_cache = DatabaseCache::Create(
+        database,
+        static_cast<size_t>(options.MinNumMatches()),
+        options.incremental_options.ignore_watermarks,
+        part_image_names,
+        [&false_pairs](const image_t image_id1, const image_t image_id2) {
+          return false_pairs.count(
+                     Database::ImagePairToPairId(image_id1, image_id2)) == 0;
+        });
+  }
+  for (const image_t image_id : merged->RegImageIds()) {
+    THROW_CHECK(database_cache->ExistsImage(image_id))
+        << "image " << merged->Image(image_id).Name()
+        << " has no correspondences";
+  }
+  LogMemory("loading the correspondences");
 
   Timer timer;
   timer.Start();
@@ -175,6 +204,7 @@ std::shared_ptr<Reconstruction> MergePart(
                         community_of_image,
                         merged);
   *refinement_seconds += timer.ElapsedSeconds();
+  LogMemory("the refinement");
   LOG(INFO) << StringPrintf(
       "Merged model: %d images, %d points, mean reprojection error %.3f px "
       "(%.3f px before refinement), %d images newly registered",
@@ -232,6 +262,7 @@ void LogSummary(const CommunityMapperController::Summary& summary) {
     LOG(INFO) << StringPrintf(
         "Time %-28s %9.3fs", (phase.first + ":").c_str(), phase.second);
   }
+  LOG(INFO) << StringPrintf("Peak memory: %.0f MB", summary.peak_memory_mb);
 }
 
 }  // namespace
@@ -264,7 +295,6 @@ CommunityMapperController::Options::CommunityIncrementalOptions(
 bool CommunityMapperController::Options::Check() const {
   CHECK_OPTION(community_detection.Check());
   CHECK_OPTION(min_num_matches == -1 || min_num_matches > 0);
-  CHECK_OPTION(edge_weights == "unit" || edge_weights == "num_inliers");
   CHECK_OPTION_GE(image_overlap, 0);
   CHECK_OPTION_GE(num_workers, -1);
   CHECK_OPTION_NE(num_workers, 0);
@@ -306,8 +336,7 @@ bool CommunityMapperController::Partition() {
   database_fingerprint_ = DatabaseFingerprint(database);
   const ViewGraph view_graph =
       ViewGraph::Read(database, options_.MinNumMatches());
-  const ViewGraphEdgeWeight edge_weight =
-      ViewGraphEdgeWeightFromString(options_.edge_weights);
+  const ViewGraphEdgeWeight edge_weight = options_.edge_weight;
   const WeightedGraph graph = view_graph.ToWeightedGraph(edge_weight);
   const std::vector<std::vector<int>> components = graph.ConnectedComponents();
   summary_.num_view_graph_images = static_cast<int>(view_graph.NumVertices());
@@ -582,6 +611,7 @@ bool CommunityMapperController::Merge() {
     }
   }
 
+  LogMemory("reading the community models");
   const CrossEdges cross_edges =
       GroupCrossEdges(view_graph, communities.community_of_image);
   summary_.num_community_pairs = static_cast<int>(cross_edges.size());
@@ -660,8 +690,9 @@ bool CommunityMapperController::Merge() {
   }
   summary_.phase_seconds.emplace_back("Similarity averaging",
                                       phase_timer.ElapsedSeconds());
-  LOG(INFO) << StringPrintf("Similarity averaging: %.3fs",
-                            phase_timer.ElapsedSeconds());
+  LOG(INFO) << StringPrintf("Similarity averaging: %.3fs (%s)",
+                            phase_timer.ElapsedSeconds(),
+                            ProcessMemoryToString(ReadProcessMemory()).c_str());
 
   PrintHeading1("Merging the communities and bundle adjustment");
   phase_timer.Restart();
@@ -731,6 +762,7 @@ bool CommunityMapperController::Merge() {
                                         averaging,
                                         unmodelled_images_of_part[part],
                                         false_pairs,
+                                        view_graph,
                                         &models,
                                         &refinement_seconds));
     } catch (const std::exception& error) {
@@ -779,14 +811,55 @@ bool CommunityMapperController::Merge() {
                                       merge_total - refinement_seconds);
   summary_.phase_seconds.emplace_back("Final bundle adjustment",
                                       refinement_seconds);
-  LOG(INFO) << StringPrintf("Merge: %.3fs, final bundle adjustment: %.3fs",
+  LOG(INFO) << StringPrintf("Merge: %.3fs, final bundle adjustment: %.3fs (%s)",
                             merge_total - refinement_seconds,
-                            refinement_seconds);
+                            refinement_seconds,
+                            ProcessMemoryToString(ReadProcessMemory()).c_str());
+  summary_.peak_memory_mb = ReadProcessMemory().peak_resident_mb;
   if (merged_models.empty()) {
     LOG(ERROR) << "No community could be reconstructed: no model written.";
     return false;
   }
   return true;
+}
+
+std::string CommunityMapperController::SummaryToText(const Summary& summary) {
+  auto join = [](const auto& values) {
+    std::string text;
+    for (const auto& value : values) {
+      text += " " + std::to_string(value);
+    }
+    return text;
+  };
+  std::string text =
+      "# Figures of a community_mapper run (key value; seconds, MB)\n";
+  text +=
+      StringPrintf("num_view_graph_images %d\n", summary.num_view_graph_images);
+  text += StringPrintf("max_modularity %.4f\n", summary.max_modularity);
+  text += StringPrintf("num_communities %d\n",
+                       static_cast<int>(summary.community_sizes.size()));
+  text += "community_sizes" + join(summary.community_sizes) + "\n";
+  text += "reconstructed_communities" +
+          join(summary.reconstructed_communities) + "\n";
+  text += "reused_communities" + join(summary.reused_communities) + "\n";
+  int num_excluded = 0;
+  for (const bool excluded : summary.community_excluded) {
+    num_excluded += excluded ? 1 : 0;
+  }
+  text += StringPrintf("num_excluded_communities %d\n", num_excluded);
+  text += StringPrintf("num_community_pairs %d\n", summary.num_community_pairs);
+  text += StringPrintf("num_estimated_similarities %d\n",
+                       summary.num_estimated_similarities);
+  text +=
+      StringPrintf("num_kept_similarities %d\n", summary.num_kept_similarities);
+  text += "model_num_registered" + join(summary.model_num_registered) + "\n";
+  for (const auto& phase : summary.phase_seconds) {
+    std::string name = StringReplace(phase.first, " ", "_");
+    std::transform(name.begin(), name.end(), name.begin(), ::tolower);
+    text += StringPrintf("phase_seconds %s %.3f\n", name.c_str(), phase.second);
+  }
+  text += StringPrintf("peak_memory_mb %.1f\n", summary.peak_memory_mb);
+  return text;
 }
 
 void CommunityMapperController::Run() { RunAllStages(); }
@@ -799,7 +872,10 @@ bool CommunityMapperController::RunAllStages() {
   auto end_phase = [&](const std::string& name) {
     summary_.phase_seconds.emplace_back(name, phase_timer.ElapsedSeconds());
     LOG(INFO) << StringPrintf(
-        "%s: %.3fs", name.c_str(), phase_timer.ElapsedSeconds());
+        "%s: %.3fs (%s)",
+        name.c_str(),
+        phase_timer.ElapsedSeconds(),
+        ProcessMemoryToString(ReadProcessMemory()).c_str());
   };
 
   //////////////////////////////////////////////////////////////////////////////
@@ -871,10 +947,11 @@ bool CommunityMapperController::RunAllStages() {
       summary_.reconstructed_communities.push_back(c);
       ++num_done;
       LOG(INFO) << StringPrintf(
-          "Communities done: %d of %d (%.0fs)",
+          "Communities done: %d of %d (%.0fs, %s)",
           num_done + static_cast<int>(summary_.reused_communities.size()),
           plan_.NumCommunities(),
-          phase_timer.ElapsedSeconds());
+          phase_timer.ElapsedSeconds(),
+          ProcessMemoryToString(ReadProcessMemory()).c_str());
     });
   }
   thread_pool.Wait();

@@ -72,10 +72,10 @@ class CommunityMapperController : public BaseController {
     // -1 takes the incremental mapper's min_num_matches.
     int min_num_matches = -1;
 
-    // Edge weights for community detection: "unit" (every edge 1, as in the
-    // paper) or "num_inliers" (verified inlier count; use it where nearly
-    // every pair is verified, e.g. after exhaustive matching).
-    std::string edge_weights = "unit";
+    // Edge weights for community detection: every edge 1, as in the paper,
+    // or its verified inlier count. The balance rule splits the unit graph
+    // of an exhaustively matched database too (README: edge_weights).
+    ViewGraphEdgeWeight edge_weight = ViewGraphEdgeWeight::kUnit;
 
     // Number of images each community borrows from each neighbouring
     // community, so that neighbours share images and points for the
@@ -175,7 +175,15 @@ class CommunityMapperController : public BaseController {
     std::unordered_map<image_t, int> community_of_image;
     // Phase name and seconds.
     std::vector<std::pair<std::string, double>> phase_seconds;
+    // Peak resident memory of the process (MB).
+    double peak_memory_mb = 0.0;
   };
+
+  // The summary as "key value" lines (OUT/summary.txt), for scripts such as
+  // the benchmark: phase_seconds NAME SECONDS (NAME in snake case),
+  // community_sizes, reused_communities, model_num_registered,
+  // peak_memory_mb, ...
+  static std::string SummaryToText(const Summary& summary);
 
   CommunityMapperController(
       const Options& options,

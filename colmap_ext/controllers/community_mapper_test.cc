@@ -52,3 +52,38 @@ TEST(CommunityMapperOptions, CheckRefusesARatioOfOneOrLess) {
 
 }  // namespace
 }  // namespace colmap
+
+namespace colmap {
+namespace {
+
+TEST(CommunityMapperSummary, TextHasTheFiguresScriptsRead) {
+  CommunityMapperController::Summary summary;
+  summary.num_view_graph_images = 128;
+  summary.max_modularity = 0.5234;
+  summary.community_sizes = {59, 39, 30};
+  summary.reused_communities = {0, 2};
+  summary.reconstructed_communities = {1};
+  summary.community_excluded = {false, true, false};
+  summary.model_num_registered = {127};
+  summary.phase_seconds = {{"Partition", 0.25},
+                           {"Final bundle adjustment", 12.5}};
+  summary.peak_memory_mb = 233.4;
+  const std::string text = CommunityMapperController::SummaryToText(summary);
+  for (const std::string line :
+       {"num_view_graph_images 128\n",
+        "max_modularity 0.5234\n",
+        "num_communities 3\n",
+        "community_sizes 59 39 30\n",
+        "reused_communities 0 2\n",
+        "reconstructed_communities 1\n",
+        "num_excluded_communities 1\n",
+        "model_num_registered 127\n",
+        "phase_seconds partition 0.250\n",
+        "phase_seconds final_bundle_adjustment 12.500\n",
+        "peak_memory_mb 233.4\n"}) {
+    EXPECT_NE(text.find(line), std::string::npos) << line << text;
+  }
+}
+
+}  // namespace
+}  // namespace colmap

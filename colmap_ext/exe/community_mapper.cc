@@ -18,7 +18,8 @@ namespace colmap {
 namespace {
 
 // Checks the option values a user sets, with a message per problem.
-bool CheckCommandOptions(const CommunityMapperController::Options& options) {
+bool CheckCommandOptions(const CommunityMapperCommand& command) {
+  const CommunityMapperController::Options& options = command.options;
   bool valid = true;
   auto fail = [&valid](const std::string& message) {
     LOG(ERROR) << message;
@@ -43,8 +44,8 @@ bool CheckCommandOptions(const CommunityMapperController::Options& options) {
         "for --Mapper.min_num_matches.",
         options.min_num_matches));
   }
-  if (options.edge_weights != "unit" && options.edge_weights != "num_inliers") {
-    fail("--CommunityMapper.edge_weights is '" + options.edge_weights +
+  if (command.edge_weights != "unit" && command.edge_weights != "num_inliers") {
+    fail("--CommunityMapper.edge_weights is '" + command.edge_weights +
          "': use 'unit' or 'num_inliers'.");
   }
   if (options.image_overlap < 0) {
@@ -302,10 +303,13 @@ bool PrepareWorkspace(const CommunityMapperCommand& command,
 }  // namespace
 
 bool RunCommunityMapperImpl(const CommunityMapperCommand& command) {
-  const CommunityMapperController::Options& options = command.options;
+  if (!CheckCommandOptions(command)) {
+    return false;
+  }
+  CommunityMapperController::Options options = command.options;
+  options.edge_weight = ViewGraphEdgeWeightFromString(command.edge_weights);
   const CommunityWorkspace workspace(options.output_path);
-  if (!CheckCommandOptions(options) ||
-      !CheckDatabase(options.database_path, options.MinNumMatches()) ||
+  if (!CheckDatabase(options.database_path, options.MinNumMatches()) ||
       !PrepareWorkspace(command, workspace)) {
     return false;
   }
@@ -323,6 +327,7 @@ bool RunCommunityMapperImpl(const CommunityMapperCommand& command) {
   }
 
   auto reconstruction_manager = std::make_shared<ReconstructionManager>();
+  CommunityMapperController::Summary summary;
   try {
     CommunityMapperController controller(options, reconstruction_manager);
     bool success = true;
@@ -346,6 +351,7 @@ bool RunCommunityMapperImpl(const CommunityMapperCommand& command) {
     if (!success) {
       return false;
     }
+    summary = controller.GetSummary();
   } catch (const std::exception& error) {
     LOG(ERROR) << StageName(command.stage) << " failed: " << error.what();
     return false;
@@ -379,6 +385,8 @@ bool RunCommunityMapperImpl(const CommunityMapperCommand& command) {
       if (!command.project_ini.empty()) {
         WriteTextFileAtomically(command.project_ini, workspace.ProjectPath());
       }
+      WriteTextFileAtomically(CommunityMapperController::SummaryToText(summary),
+                              workspace.SummaryPath());
       outputs.push_back(workspace.MergedModelPath(0) +
                         (models.size() > 1
                              ? " .. " + std::to_string(models.size() - 1)
@@ -390,6 +398,8 @@ bool RunCommunityMapperImpl(const CommunityMapperCommand& command) {
       outputs.push_back(workspace.CommunitiesPlyPath() +
                         " (camera centres of model 0, coloured by community)");
       outputs.push_back(workspace.ProjectPath());
+      outputs.push_back(workspace.SummaryPath() +
+                        " (figures of the run: phases, memory, models)");
     }
   } catch (const std::exception& error) {
     LOG(ERROR) << "Writing to " << workspace.OutputPath()
@@ -489,7 +499,7 @@ void ParseCommand(int argc,
       "minimum verified inliers of a view-graph edge (-1: "
       "Mapper.min_num_matches)");
   add("edge_weights",
-      &mapper_options.edge_weights,
+      &command->edge_weights,
       "edge weights for community detection: unit | num_inliers (use "
       "num_inliers after exhaustive matching)");
   add("image_overlap",

@@ -35,7 +35,11 @@ enum class CommunityMapperStage {
 
 struct CommunityMapperCommand {
   CommunityMapperStage stage = CommunityMapperStage::kAll;
+  // The controller's options; those given as text on the command line
+  // (edge_weights) are checked and converted by RunCommunityMapperImpl.
   CommunityMapperController::Options options;
+  // --CommunityMapper.edge_weights: "unit" or "num_inliers".
+  std::string edge_weights = "unit";
   // The community of kCommunity.
   int community_id = -1;
   // Replace the results of an earlier run (of kCommunity: that community's).

@@ -57,7 +57,7 @@ TEST(WeightedGraph, InducedSubgraph) {
 }
 
 TEST(ViewGraph, ReadFromDatabase) {
-  const std::string test_dir = CreateTestDir();
+  const std::string test_dir = CreateTestFolder();
   Database database(JoinPaths(test_dir, "database.db"));
   Camera camera = Camera::CreateFromModelName(
       kInvalidCameraId, "SIMPLE_PINHOLE", 100, 100, 100);

@@ -43,7 +43,7 @@ TEST(CommunitiesToText, ListsEveryImageOnceWithItsCommunity) {
   EXPECT_LT(text.find("a.jpg"), text.find("b.jpg"));
   EXPECT_LT(text.find("e.jpg"), text.find("f.jpg"));
 
-  const std::string path = JoinPaths(CreateTestDir(), "communities.txt");
+  const std::string path = JoinPaths(CreateTestFolder(), "communities.txt");
   WriteTextFileAtomically(text, path);
   const std::unordered_map<std::string, int> communities =
       ReadCommunities(path);
@@ -54,7 +54,7 @@ TEST(CommunitiesToText, ListsEveryImageOnceWithItsCommunity) {
 }
 
 TEST(ReadCommunities, RejectsAnImageListedTwice) {
-  const std::string path = JoinPaths(CreateTestDir(), "communities.txt");
+  const std::string path = JoinPaths(CreateTestFolder(), "communities.txt");
   WriteTextFileAtomically("# header\na.jpg 0\nb.jpg 1\na.jpg 1\n", path);
   EXPECT_THROW(ReadCommunities(path), std::exception);
 }
@@ -77,7 +77,7 @@ TEST(CommunityCamerasToPly, ColmapReadsTheColouredCameras) {
     }
   }
 
-  const std::string path = JoinPaths(CreateTestDir(), "communities.ply");
+  const std::string path = JoinPaths(CreateTestFolder(), "communities.ply");
   WriteTextFileAtomically(
       CommunityCamerasToPly(reconstruction, community_of_image), path);
   // COLMAP's reader, which its GUI's "Import model from..." uses.

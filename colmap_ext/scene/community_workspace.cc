@@ -131,6 +131,10 @@ std::string CommunityWorkspace::ProjectPath() const {
   return JoinPaths(output_path_, kProjectFileName);
 }
 
+std::string CommunityWorkspace::SummaryPath() const {
+  return JoinPaths(output_path_, kSummaryFileName);
+}
+
 std::vector<std::string> CommunityWorkspace::MergedModelPaths() const {
   std::vector<std::string> paths;
   for (int i = 0; ExistsDir(MergedModelPath(i)); ++i) {
@@ -195,6 +199,7 @@ void CommunityWorkspace::RemoveResults() const {
   boost::filesystem::remove(PlanPath(), error);
   boost::filesystem::remove(CommunitiesPath(), error);
   boost::filesystem::remove(CommunitiesPlyPath(), error);
+  boost::filesystem::remove(SummaryPath(), error);
   boost::filesystem::remove_all(CommunitiesDir(), error);
   for (int i = 0; ExistsDir(MergedModelPath(i)); ++i) {
     boost::filesystem::remove_all(MergedModelPath(i), error);

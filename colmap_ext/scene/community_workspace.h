@@ -8,7 +8,8 @@
 //   2. community K:  OUT/communities/K/ (its model), then
 //                    OUT/communities/K.done (its record)
 //   3. merge:        OUT/0/, OUT/1/, ... (the merged models, largest first),
-//                    OUT/communities.ply, OUT/project.ini
+//                    OUT/communities.ply, OUT/project.ini, OUT/summary.txt
+//                    (figures of the run, for scripts)
 //
 // Every file and model is written under a temporary name and renamed into
 // place (atomic_output.h), and a community's record is written only after
@@ -36,6 +37,7 @@ constexpr char kCommunitiesFileName[] = "communities.txt";
 constexpr char kCommunitiesDirName[] = "communities";
 constexpr char kCommunitiesPlyFileName[] = "communities.ply";
 constexpr char kProjectFileName[] = "project.ini";
+constexpr char kSummaryFileName[] = "summary.txt";
 
 class CommunityWorkspace {
  public:
@@ -50,6 +52,7 @@ class CommunityWorkspace {
   std::string MergedModelPath(int model_index) const;
   std::string CommunitiesPlyPath() const;
   std::string ProjectPath() const;
+  std::string SummaryPath() const;
 
   // Whether OUT holds results of a run (a plan, a partition, communities or
   // merged models).

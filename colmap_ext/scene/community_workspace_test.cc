@@ -76,7 +76,7 @@ TEST(PlanMismatch, NamesTheOptionOrTheDatabase) {
 }
 
 TEST(DatabaseFingerprint, FollowsImagesAndVerifiedPairs) {
-  const std::string test_dir = CreateTestDir();
+  const std::string test_dir = CreateTestFolder();
   SyntheticSceneOptions options;
   options.num_clusters = 2;
   options.num_images_per_cluster = 6;
@@ -129,7 +129,7 @@ TEST(CommunityRecord, TextRoundTrip) {
 }
 
 TEST(CommunityWorkspace, ResultsAreFoundAndRemoved) {
-  const std::string test_dir = CreateTestDir();
+  const std::string test_dir = CreateTestFolder();
   const CommunityWorkspace workspace(JoinPaths(test_dir, "out"));
   EXPECT_EQ(workspace.CreateOutputFolder(), "");
   EXPECT_FALSE(workspace.HasResults());
@@ -169,7 +169,7 @@ TEST(CommunityWorkspace, ResultsAreFoundAndRemoved) {
 }
 
 TEST(CommunityWorkspace, OutputFolderProblemsAreNamed) {
-  const std::string test_dir = CreateTestDir();
+  const std::string test_dir = CreateTestFolder();
   const std::string file = JoinPaths(test_dir, "a-file");
   std::ofstream(file) << "x";
   EXPECT_NE(CommunityWorkspace(file).CreateOutputFolder().find(

@@ -33,7 +33,7 @@ SyntheticSceneOptions SmallScene() {
 }
 
 TEST(SynthesizeCommunityScene, SameSeedSameBytes) {
-  const std::string test_dir = CreateTestDir();
+  const std::string test_dir = CreateTestFolder();
   SyntheticSceneOptions options = SmallScene();
   options.outlier_match_ratio = 0.1;
   options.num_false_pairs = 5;
@@ -52,7 +52,7 @@ TEST(SynthesizeCommunityScene, SameSeedSameBytes) {
 }
 
 TEST(SynthesizeCommunityScene, DatabaseMatchesGroundTruth) {
-  const std::string test_dir = CreateTestDir();
+  const std::string test_dir = CreateTestFolder();
   SyntheticSceneOptions options = SmallScene();
   options.outlier_match_ratio = 0.1;
   options.num_false_pairs = 6;
@@ -154,7 +154,7 @@ TEST(SynthesizeCommunityScene, ClustersAreDenseWalkwaysSparse) {
 }
 
 TEST(SynthesizeCommunityScene, FocalLengthsOffTheNominalValue) {
-  const std::string test_dir = CreateTestDir();
+  const std::string test_dir = CreateTestFolder();
   SyntheticSceneOptions options = SmallScene();
   options.single_camera = false;
   options.focal_length_noise = 0.05;
@@ -184,7 +184,7 @@ TEST(SynthesizeCommunityScene, FocalLengthsOffTheNominalValue) {
 }
 
 TEST(SynthesizeCommunityScene, RepeatedStructurePairsAgreeWithAStackedTower) {
-  const std::string test_dir = CreateTestDir();
+  const std::string test_dir = CreateTestFolder();
   SyntheticSceneOptions options = SmallScene();
   options.num_clusters = 2;
   options.num_images_per_link = 0;

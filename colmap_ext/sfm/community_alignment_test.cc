@@ -40,7 +40,7 @@ class EstimateCommunitySimilaritiesTest : public ::testing::Test {
     options.keypoint_noise = 0.3;
     options.seed = 21;
     database_ =
-        std::make_unique<Database>(JoinPaths(CreateTestDir(), "database.db"));
+        std::make_unique<Database>(JoinPaths(CreateTestFolder(), "database.db"));
     SynthesizeCommunityScene(options, &scene_, database_.get());
     view_graph_ = ViewGraph::Read(*database_, 15);
     // Cluster 1 is community 1; cluster 0 and the walkway, community 0.

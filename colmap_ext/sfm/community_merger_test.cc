@@ -192,7 +192,7 @@ TEST_F(JoinReconstructionsTest, RestrictToImagesDropsBorrowedImages) {
 // graph (patches/0002): exactly those, and the others keep all their
 // matches.
 TEST(DatabaseCache, ImagePairFilterLeavesOutExactlyThePairsRefused) {
-  const std::string test_dir = CreateTestDir();
+  const std::string test_dir = CreateTestFolder();
   SyntheticSceneOptions options;
   options.num_clusters = 2;
   options.num_images_per_cluster = 10;
@@ -234,6 +234,69 @@ TEST(DatabaseCache, ImagePairFilterLeavesOutExactlyThePairsRefused) {
               expected)
         << i;
   }
+}
+
+// A subset of the images reads only the pairs among them (patches/0002),
+// and gets exactly the correspondences that the whole database's cache has
+// between them, in the same order of the two images.
+TEST(DatabaseCache, ImageSubsetHasTheWholeCachesCorrespondences) {
+  const std::string test_dir = CreateTestFolder();
+  SyntheticSceneOptions options;
+  options.num_clusters = 2;
+  options.num_images_per_cluster = 10;
+  options.num_images_per_link = 6;
+  options.num_points_per_cluster = 600;
+  options.num_points_per_link = 300;
+  options.seed = 6;
+  Database database(JoinPaths(test_dir, "database.db"));
+  SyntheticScene scene;
+  SynthesizeCommunityScene(options, &scene, &database);
+
+  const auto whole = DatabaseCache::Create(database, 15, false, {});
+  std::unordered_set<std::string> subset_names;
+  std::vector<image_t> subset_ids;
+  for (const Image& image : database.ReadAllImages()) {
+    if (image.ImageId() % 2 == 0) {
+      subset_names.insert(image.Name());
+      subset_ids.push_back(image.ImageId());
+    }
+  }
+  const auto subset = DatabaseCache::Create(database, 15, false, subset_names);
+  size_t num_compared = 0;
+  for (const image_t image_id1 : subset_ids) {
+    // An image is left out only where it has no pair inside the subset.
+    if (!subset->ExistsImage(image_id1) && whole->ExistsImage(image_id1)) {
+      for (const image_t image_id2 : subset_ids) {
+        if (image_id2 != image_id1 && whole->ExistsImage(image_id2)) {
+          EXPECT_EQ(whole->CorrespondenceGraph()
+                        ->FindCorrespondencesBetweenImages(image_id1, image_id2)
+                        .size(),
+                    0);
+        }
+      }
+    }
+    for (const image_t image_id2 : subset_ids) {
+      if (image_id1 == image_id2 || !subset->ExistsImage(image_id1) ||
+          !subset->ExistsImage(image_id2)) {
+        continue;
+      }
+      const FeatureMatches expected =
+          whole->CorrespondenceGraph()->FindCorrespondencesBetweenImages(
+              image_id1, image_id2);
+      const FeatureMatches found =
+          subset->CorrespondenceGraph()->FindCorrespondencesBetweenImages(
+              image_id1, image_id2);
+      ASSERT_EQ(found.size(), expected.size());
+      for (size_t i = 0; i < found.size(); ++i) {
+        EXPECT_EQ(found[i].point2D_idx1, expected[i].point2D_idx1);
+        EXPECT_EQ(found[i].point2D_idx2, expected[i].point2D_idx2);
+      }
+      num_compared += found.size();
+    }
+  }
+  EXPECT_GT(num_compared, 1000);
+  // Nothing of the other images.
+  EXPECT_LT(subset->NumImages(), whole->NumImages());
 }
 
 }  // namespace

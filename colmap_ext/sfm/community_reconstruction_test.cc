@@ -25,7 +25,7 @@ class ReconstructCommunityTest : public ::testing::Test {
     options.num_points_per_link = 300;
     options.close_loop = false;
     options.seed = 5;
-    database_path_ = JoinPaths(CreateTestDir(), "database.db");
+    database_path_ = JoinPaths(CreateTestFolder(), "database.db");
     Database database(database_path_);
     SynthesizeCommunityScene(options, &scene_, &database);
     auto mapper_options = std::make_shared<IncrementalMapperOptions>();

@@ -36,7 +36,7 @@ Reconstruction TwoImages() {
 }
 
 TEST(WriteReconstructionAtomically, ReplacesAModelWithoutLeftovers) {
-  const std::string test_dir = CreateTestDir();
+  const std::string test_dir = CreateTestFolder();
   const std::string path = JoinPaths(test_dir, "0");
   CreateDirIfNotExists(path);
   std::ofstream(JoinPaths(path, "stale.txt")) << "old";
@@ -58,7 +58,7 @@ TEST(WriteReconstructionAtomically, ReplacesAModelWithoutLeftovers) {
 }
 
 TEST(WriteTextFileAtomically, ReplacesTheFile) {
-  const std::string path = JoinPaths(CreateTestDir(), "a.txt");
+  const std::string path = JoinPaths(CreateTestFolder(), "a.txt");
   WriteTextFileAtomically("first\n", path);
   WriteTextFileAtomically("second\n", path);
   EXPECT_EQ(ReadText(path), "second\n");

@@ -11,7 +11,7 @@
 
 namespace colmap {
 
-std::string CreateTestDir() {
+std::string CreateTestFolder() {
   const testing::TestInfo* test_info = THROW_CHECK_NOTNULL(
       testing::UnitTest::GetInstance()->current_test_info());
   const boost::filesystem::path test_dir =

@@ -6,8 +6,9 @@
 
 namespace colmap {
 
-// A new, empty folder for the running test, named after it.
-std::string CreateTestDir();
+// A new, empty folder for the running test, named after it. (Not
+// CreateTestDir: COLMAP's tests define colmap::CreateTestDir.)
+std::string CreateTestFolder();
 
 // Runs a shell command, capturing stdout and stderr together. Returns its
 // exit status (-1 if it could not be run or was killed).
