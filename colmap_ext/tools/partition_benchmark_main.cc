@@ -2,7 +2,7 @@
 // without any reconstruction (how the partition's cost grows).
 //
 //   partition_benchmark --num_images 100000 --num_images_per_place 100
-//       --degree 40
+//       --degree 60
 //
 // The graph has what a large photo collection's view graph has: places
 // (landmarks, streets) of num_images_per_place images, each image matched
@@ -75,7 +75,7 @@ WeightedGraph GenerateViewGraph(const int num_images,
 int RunPartitionBenchmark(int argc, char** argv) {
   int num_images = 100000;
   int num_images_per_place = 100;
-  int degree = 40;
+  int degree = 60;
   int seed = 1;
   CommunityDetectionOptions detection_options;
   OptionManager options(/*add_project_options=*/false);
