@@ -64,11 +64,6 @@ CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
   return groups;
 }
 
-ViewGraph ReadViewGraph(const CommunityMapperController::Options& options) {
-  return ViewGraph::Read(Database(options.database_path),
-                         options.MinNumMatches());
-}
-
 // Joins the communities of one part (connected by kept similarities) into
 // one model in the global frame, merges their corresponding points and
 // refines the result on the part's images plus `extra_image_names` (images
@@ -589,7 +584,10 @@ bool CommunityMapperController::Merge() {
   Timer phase_timer;
   phase_timer.Start();
   PrintHeading1("Global similarity averaging");
-  const ViewGraph view_graph = ReadViewGraph(options_);
+  // One connection for the view graph and the cross edges' matches.
+  const Database database(options_.database_path);
+  const ViewGraph view_graph =
+      ViewGraph::Read(database, options_.MinNumMatches());
   const CommunityImages communities = GroupImagesByCommunity(view_graph, plan_);
   summary_.community_of_image = communities.community_of_image;
 
@@ -615,18 +613,15 @@ bool CommunityMapperController::Merge() {
   const CrossEdges cross_edges =
       GroupCrossEdges(view_graph, communities.community_of_image);
   summary_.num_community_pairs = static_cast<int>(cross_edges.size());
-  CommunitySimilarities community_similarities;
-  {
-    const Database database(options_.database_path);
-    community_similarities = EstimateCommunitySimilarities(
-        database,
-        view_graph,
-        cross_edges,
-        std::vector<std::shared_ptr<const Reconstruction>>(models.begin(),
-                                                           models.end()),
-        options_.pairwise_similarity,
-        options_.covisibility_check);
-  }
+  const CommunitySimilarities community_similarities =
+      EstimateCommunitySimilarities(
+          database,
+          view_graph,
+          cross_edges,
+          std::vector<std::shared_ptr<const Reconstruction>>(models.begin(),
+                                                             models.end()),
+          options_.pairwise_similarity,
+          options_.covisibility_check);
   const std::vector<RelativeSimilarity>& similarities =
       community_similarities.similarities;
   const std::unordered_set<image_pair_t>& false_pairs =
