@@ -137,6 +137,26 @@ std::shared_ptr<Reconstruction> MergePart(
                       owned_image_ids,
                       merged.get(),
                       &point3D_ids);
+  if (options.align_pose_graph) {
+    Timer timer;
+    timer.Start();
+    const PoseGraphAlignmentSummary pose_graph =
+        AlignPoseGraph(std::vector<const Reconstruction*>(part_models.begin(),
+                                                          part_models.end()),
+                       owned_image_ids,
+                       options.pose_graph,
+                       merged.get());
+    LOG(INFO) << StringPrintf(
+        "Pose graph of %d cameras, %d edges: cost %.4g -> %.4g, cameras "
+        "moved by %.3f (median), %.3f (max) edge lengths (%.1fs)",
+        pose_graph.num_images,
+        pose_graph.num_edges,
+        pose_graph.initial_cost,
+        pose_graph.final_cost,
+        pose_graph.median_relative_movement,
+        pose_graph.max_relative_movement,
+        timer.ElapsedSeconds());
+  }
   for (const int c : part_communities) {
     (*models)[c].reset();  // Joined: the community's copy is not needed.
   }
@@ -301,6 +321,7 @@ bool CommunityMapperController::Options::Check() const {
   CHECK_OPTION(covisibility_check.Check());
   CHECK_OPTION(similarity_averaging.Check());
   CHECK_OPTION(refinement.Check());
+  CHECK_OPTION(pose_graph.Check());
   CHECK_OPTION(incremental_options.Check());
   return true;
 }

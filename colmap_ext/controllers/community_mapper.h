@@ -31,6 +31,7 @@
 #include "colmap_ext/sfm/community_merger.h"
 #include "colmap_ext/sfm/covisibility_check.h"
 #include "colmap_ext/sfm/pairwise_similarity.h"
+#include "colmap_ext/sfm/pose_graph_alignment.h"
 #include "colmap_ext/sfm/similarity_averaging.h"
 
 #include "colmap/controllers/incremental_mapper.h"
@@ -126,6 +127,12 @@ class CommunityMapperController : public BaseController {
 
     // Global similarity averaging and edge rejection.
     SimilarityAveragingOptions similarity_averaging;
+
+    // Before the refinement, a scale-drift-aware pose graph over the
+    // communities' cameras spreads each community's disagreement with its
+    // neighbours over its edges (pose_graph_alignment.h).
+    bool align_pose_graph = true;
+    PoseGraphAlignmentOptions pose_graph;
 
     // Refinement of the merged model.
     MergedModelRefinementOptions refinement;

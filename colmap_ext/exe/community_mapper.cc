@@ -85,6 +85,16 @@ bool CheckCommandOptions(const CommunityMapperCommand& command) {
         "positive.",
         options.refinement.initial_trust_region_radius));
   }
+  if (options.pose_graph.min_num_shared_points < 1 ||
+      options.pose_graph.max_num_neighbors < 1) {
+    fail(StringPrintf(
+        "--CommunityMapper.pose_graph_min_num_shared_points (%d) and "
+        "--CommunityMapper.pose_graph_max_num_neighbors (%d) must be "
+        "positive; --CommunityMapper.pose_graph_alignment 0 turns the pose "
+        "graph off.",
+        options.pose_graph.min_num_shared_points,
+        options.pose_graph.max_num_neighbors));
+  }
   if (valid && !options.Check()) {
     fail("Invalid option values (see the check that failed above).");
   }
@@ -557,6 +567,18 @@ void ParseCommand(int argc,
       &mapper_options.judgement.max_relative_reprojection_error,
       "a community whose model's mean reprojection error exceeds this many "
       "times the communities' median is in doubt");
+  add("pose_graph_alignment",
+      &mapper_options.align_pose_graph,
+      "before the refinement, spread each community's disagreement with its "
+      "neighbours over its cameras by a scale-drift-aware pose graph");
+  add("pose_graph_min_num_shared_points",
+      &mapper_options.pose_graph.min_num_shared_points,
+      "a pose graph edge links two images of a community that share at least "
+      "this many points");
+  add("pose_graph_max_num_neighbors",
+      &mapper_options.pose_graph.max_num_neighbors,
+      "pose graph edges per image (the images it shares the most points "
+      "with)");
   add("register_remaining_images",
       &mapper_options.refinement.register_remaining_images,
       "try to register, in the merged model, images no community registered");
