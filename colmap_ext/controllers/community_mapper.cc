@@ -147,10 +147,16 @@ std::shared_ptr<Reconstruction> MergePart(
                        options.pose_graph,
                        merged.get());
     LOG(INFO) << StringPrintf(
-        "Pose graph of %d cameras, %d edges: cost %.4g -> %.4g, cameras "
-        "moved by %.3f (median), %.3f (max) edge lengths (%.1fs)",
+        "Pose graph of %d cameras, %d edges, %d ties between the copies of "
+        "one image (largest disagreement %.2f deg, %.2f edge lengths; %d "
+        "dropped): cost %.4g -> %.4g, cameras moved by %.3f (median), %.3f "
+        "(max) edge lengths (%.1fs)",
         pose_graph.num_images,
         pose_graph.num_edges,
+        pose_graph.num_ties,
+        pose_graph.max_tie_rotation_deg,
+        pose_graph.max_tie_distance,
+        pose_graph.num_dropped_ties,
         pose_graph.initial_cost,
         pose_graph.final_cost,
         pose_graph.median_relative_movement,

@@ -1,6 +1,7 @@
 #include "colmap_ext/sfm/pose_graph_alignment.h"
 
 #include "colmap/estimators/cost_functions.h"
+#include "colmap/math/math.h"
 #include "colmap/util/logging.h"
 
 #include <algorithm>
@@ -113,6 +114,8 @@ bool PoseGraphAlignmentOptions::Check() const {
   CHECK_OPTION_GT(min_num_shared_points, 0);
   CHECK_OPTION_GT(max_num_neighbors, 0);
   CHECK_OPTION_GT(max_num_iterations, 0);
+  CHECK_OPTION_GT(max_tie_rotation_deg, 0);
+  CHECK_OPTION_GT(max_tie_distance, 0);
   return true;
 }
 
@@ -278,6 +281,21 @@ PoseGraphAlignmentSummary AlignPoseGraph(
       }
       CameraVertex& vertex1 = vertices[owner->second];
       CameraVertex& vertex2 = vertices[image_and_vertex.second];
+      // A model that placed the image far from where its owner did (e.g.
+      // registered it on a repeated structure) does not tie it.
+      const double rotation_deg = RadToDeg(
+          vertex1.cam_from_world.angularDistance(vertex2.cam_from_world));
+      const double distance =
+          (vertex1.center - vertex2.center).norm() / model_length_scale[m];
+      if (rotation_deg > options.max_tie_rotation_deg ||
+          distance > options.max_tie_distance) {
+        ++summary.num_dropped_ties;
+        continue;
+      }
+      summary.max_tie_rotation_deg =
+          std::max(summary.max_tie_rotation_deg, rotation_deg);
+      summary.max_tie_distance = std::max(summary.max_tie_distance, distance);
+      ++summary.num_ties;
       problem.AddResidualBlock(
           SameImageCostFunction::Create(model_length_scale[m]),
           nullptr,
