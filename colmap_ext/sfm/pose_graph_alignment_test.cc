@@ -164,6 +164,33 @@ TEST(PoseGraphAlignment, ConsistentCommunitiesKeepTheirPoses) {
   EXPECT_LT(MaxCenterError(joined, walk), 1e-9);
 }
 
+// The second community registered one of the images it borrowed far from
+// where the first has it (as on a repeated structure): that image is not
+// tied, and nothing moves.
+TEST(PoseGraphAlignment, DoesNotTieAnImagePlacedFarOff) {
+  const Reconstruction walk = Walk(20);
+  const Reconstruction community1 = Piece(walk, 1, 12);
+  Reconstruction community2 = Piece(walk, 10, 20);
+  const Eigen::Vector3d center = walk.Image(11).ProjectionCenter();
+  MoveImages(Sim3d(1,
+                   Eigen::Quaterniond(
+                       Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitY())),
+                   Eigen::Vector3d(0, 0, 6)) *
+                 Sim3d(1, Eigen::Quaterniond::Identity(), -center),
+             11,
+             11,
+             &community2);
+  Reconstruction joined = walk;
+  const PoseGraphAlignmentSummary summary =
+      AlignPoseGraph({&community1, &community2},
+                     {Range(1, 12), Range(13, 20)},
+                     PoseGraphAlignmentOptions(),
+                     &joined);
+  EXPECT_EQ(summary.num_ties, 2);
+  EXPECT_EQ(summary.num_dropped_ties, 1);
+  EXPECT_LT(MaxCenterError(joined, walk), 1e-3);
+}
+
 // The second community was placed by a wrong similarity (3 degrees, scale
 // 1.2, shifted): the images it shares with the first tie it back.
 TEST(PoseGraphAlignment, PullsAMisplacedCommunityBack) {
