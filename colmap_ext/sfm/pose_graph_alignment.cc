@@ -5,7 +5,7 @@
 #include "colmap/util/logging.h"
 
 #include <algorithm>
-#include <map>
+#include <set>
 #include <unordered_map>
 
 #include <ceres/ceres.h>
@@ -130,7 +130,7 @@ std::vector<PoseGraphEdge> CovisibilityEdges(
   }
 
   // Per image, the images it shares the most points with.
-  std::map<std::pair<size_t, size_t>, int> pairs;
+  std::set<std::pair<size_t, size_t>> pairs;
   std::vector<int> num_shared(image_ids.size(), 0);
   std::vector<size_t> touched;
   for (size_t i = 0; i < image_ids.size(); ++i) {
@@ -165,9 +165,8 @@ std::vector<PoseGraphEdge> CovisibilityEdges(
                       neighbors.end(),
                       std::greater<std::pair<int, size_t>>());
     for (size_t k = 0; k < num_kept; ++k) {
-      pairs.emplace(std::make_pair(std::min(i, neighbors[k].second),
-                                   std::max(i, neighbors[k].second)),
-                    neighbors[k].first);
+      pairs.emplace(std::min(i, neighbors[k].second),
+                    std::max(i, neighbors[k].second));
     }
   }
 
@@ -175,12 +174,10 @@ std::vector<PoseGraphEdge> CovisibilityEdges(
   edges.reserve(pairs.size());
   std::vector<double> lengths;
   lengths.reserve(pairs.size());
-  for (const auto& pair_and_count : pairs) {
-    const auto& pair = pair_and_count.first;
+  for (const auto& pair : pairs) {
     PoseGraphEdge edge;
     edge.image_id1 = image_ids[pair.first];
     edge.image_id2 = image_ids[pair.second];
-    edge.num_shared_points = pair_and_count.second;
     edge.cam1_from_cam2 =
         reconstruction.Image(edge.image_id1).CamFromWorld() *
         Inverse(reconstruction.Image(edge.image_id2).CamFromWorld());

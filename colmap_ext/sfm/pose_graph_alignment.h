@@ -76,10 +76,9 @@ struct PoseGraphEdge {
   Rigid3d cam1_from_cam2;
   // The length scale of the model's edges (median |t|), as d_K above.
   double length_scale = 1.0;
-  // 3D points the two images observe in common. (Weighting the edges by
-  // it, so that well-observed pairs hold more, made a generated open chain
-  // worse: 0.29 m median camera error instead of 0.21.)
-  int num_shared_points = 0;
+  // (The edges weigh alike. Weighting them by the points the two images
+  // share, so that well-observed pairs hold more, made a generated open
+  // chain worse: 0.29 m median camera error instead of 0.21.)
 };
 
 // The covisibility edges of one (community) model, as the options select.
