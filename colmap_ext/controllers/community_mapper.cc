@@ -687,7 +687,10 @@ bool CommunityMapperController::Merge() {
         report.rotation_residual_deg,
         report.log_scale_residual,
         report.relative_translation_residual,
-        report.kept ? "kept" : "dropped");
+        report.kept          ? "kept"
+        : report.unconfirmed ? "dropped (on no cycle, and the images both "
+                               "models registered do not confirm it)"
+                             : "dropped");
   }
   if (!false_pairs.empty()) {
     LOG(INFO) << StringPrintf(
@@ -697,14 +700,22 @@ bool CommunityMapperController::Merge() {
   }
   for (int c = 0; c < num_communities; ++c) {
     if (averaging.excluded[c]) {
+      bool unconfirmed = false;
+      for (size_t e = 0; e < similarities.size(); ++e) {
+        unconfirmed = unconfirmed || ((similarities[e].community1 == c ||
+                                       similarities[e].community2 == c) &&
+                                      averaging.edges[e].unconfirmed);
+      }
       LOG(WARNING) << StringPrintf(
           "Community %d leaves the merge: %s. Its images are offered to the "
           "merged model.",
           c,
           summary_.community_judgements[c].broken ? "its model is broken"
           : summary_.community_judgements[c].doubtful
-              ? "its similarities disagree with the other communities' "
-                "and its model is in doubt"
+              ? (unconfirmed ? "nothing confirms its similarities and its "
+                               "model is in doubt"
+                             : "its similarities disagree with the other "
+                               "communities' and its model is in doubt")
               : "its similarities disagree with the other communities' "
                 "and it is small");
       models[c].reset();

@@ -270,6 +270,8 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
     int depth = 0;
     // Images of the connected component it belongs to.
     int component_size = 0;
+    // Whether it is a part of a balance split (see below).
+    bool balanced = false;
   };
   std::vector<Pending> pending;
   const std::vector<std::vector<int>> components = graph.ConnectedComponents();
@@ -296,7 +298,7 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
       record.num_parts = result.num_communities;
       record.accepted = result.num_communities > 1 &&
                         result.modularity > options.modularity_threshold;
-      if (!record.accepted && result.num_communities > 1 &&
+      if (!record.accepted && result.num_communities > 1 && !current.balanced &&
           current.vertices.size() >
               options.max_community_fraction * current.component_size) {
         std::vector<int> part_sizes(result.num_communities, 0);
@@ -336,6 +338,7 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
             Pending child;
             child.depth = current.depth + 1;
             child.component_size = current.component_size;
+            child.balanced = current.balanced || record.balance;
             for (const int i : piece) {
               child.vertices.push_back(part[i]);
             }

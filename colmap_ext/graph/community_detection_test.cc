@@ -326,6 +326,55 @@ TEST(DetectCommunities, CommunityHoldingMoreThanItsShareIsSplit) {
             1);
 }
 
+// Splits off the first `fraction` of the vertices (at least 9 vertices).
+class FractionPartitioner : public GraphPartitioner {
+ public:
+  FractionPartitioner(double fraction, double modularity)
+      : fraction_(fraction), modularity_(modularity) {}
+  std::string Name() const override { return "fraction"; }
+  Result Partition(const WeightedGraph& graph) const override {
+    Result result;
+    result.membership.assign(graph.num_vertices, 0);
+    if (graph.num_vertices <= 8) {
+      result.num_communities = 1;
+      return result;
+    }
+    for (int i = 0; i < graph.num_vertices; ++i) {
+      result.membership[i] = i < fraction_ * graph.num_vertices ? 0 : 1;
+    }
+    result.num_communities = 2;
+    result.modularity = modularity_;
+    return result;
+  }
+
+ private:
+  const double fraction_;
+  const double modularity_;
+};
+
+TEST(DetectCommunities, BalanceRuleCutsOnlyOnce) {
+  // 40 images without structure: the balance rule cuts them 16 / 24. The
+  // 24 still hold more than half the component, but their own peak says
+  // they have no structure either: they stay one community.
+  CommunityDetectionOptions options = Options(/*min_community_size=*/8);
+  const CommunityPartition partition = DetectCommunities(
+      Path(40), FractionPartitioner(0.4, /*modularity=*/0.1), options);
+  EXPECT_EQ(partition.NumCommunities(), 2);
+  EXPECT_EQ(NumCommunitiesAmong(partition, 0, 16), 1);
+  EXPECT_EQ(NumCommunitiesAmong(partition, 16, 24), 1);
+  ASSERT_EQ(partition.splits.size(), 3);
+  EXPECT_TRUE(partition.splits[0].balance);
+  EXPECT_FALSE(partition.splits[1].accepted);
+  EXPECT_FALSE(partition.splits[2].accepted);
+
+  // Above the threshold, the parts of a balance cut still split.
+  options.modularity_threshold = 0.05;
+  EXPECT_GT(DetectCommunities(
+                Path(40), FractionPartitioner(0.4, /*modularity=*/0.1), options)
+                .NumCommunities(),
+            2);
+}
+
 TEST(DetectCommunities, ModularityAtThresholdDoesNotSplit) {
   CommunityDetectionOptions options = Options(/*min_community_size=*/2);
   options.modularity_threshold = 0.5;

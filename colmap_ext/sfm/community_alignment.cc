@@ -118,6 +118,15 @@ CommunitySimilarities EstimateCommunitySimilarities(
           return covisibility.consistent;
         },
         &num_rejected);
+    SharedImageAgreement agreement;
+    if (similarity.success) {
+      agreement =
+          CheckSharedImages(model1,
+                            model2,
+                            similarity.second_from_first,
+                            MedianDistanceToMedian(similarity.inlier_points2),
+                            pairwise_options);
+    }
     LOG(INFO) << StringPrintf(
         "Communities %d-%d: %d shared images, %d cross edges, %d point "
         "correspondences%s -> %s",
@@ -129,13 +138,19 @@ CommunitySimilarities EstimateCommunitySimilarities(
         rejected.c_str(),
         similarity.success
             ? StringPrintf("%d inliers, scale %.4f, co-visible pairs "
-                           "verified %d of %d across, %d of %d inside: used",
+                           "verified %d of %d across, %d of %d inside, "
+                           "shared images placed alike %d of %d (largest "
+                           "difference %.1f deg, %.2f spreads): used",
                            similarity.num_inliers,
                            similarity.second_from_first.scale,
                            covisibility.num_verified_cross_pairs,
                            covisibility.num_predicted_cross_pairs,
                            covisibility.num_verified_internal_pairs,
-                           covisibility.num_predicted_internal_pairs)
+                           covisibility.num_predicted_internal_pairs,
+                           agreement.num_agreeing,
+                           agreement.num_shared_images,
+                           agreement.max_rotation_deg,
+                           agreement.max_relative_distance)
                   .c_str()
         : num_rejected > 0 ? "no transform explains the matches, not used"
                            : "too little support, not used");
@@ -170,6 +185,8 @@ CommunitySimilarities EstimateCommunitySimilarities(
     relative.points2 = similarity.inlier_points2;
     relative.point3D_ids = similarity.inlier_point3D_ids;
     relative.num_inliers = similarity.num_inliers;
+    relative.num_shared_images = agreement.num_shared_images;
+    relative.num_agreeing_shared_images = agreement.num_agreeing;
     result.similarities.push_back(std::move(relative));
   }
   return result;

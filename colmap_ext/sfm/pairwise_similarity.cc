@@ -1,6 +1,7 @@
 #include "colmap_ext/sfm/pairwise_similarity.h"
 
 #include "colmap/estimators/similarity_transform.h"
+#include "colmap/math/math.h"
 #include "colmap/optim/loransac.h"
 #include "colmap/util/logging.h"
 
@@ -75,6 +76,8 @@ bool PairwiseSimilarityOptions::Check() const {
   CHECK_OPTION_LE(min_inlier_ratio, 1);
   CHECK_OPTION_GE(min_num_inliers, 3);
   CHECK_OPTION_GE(max_num_hypotheses, 1);
+  CHECK_OPTION_GT(max_shared_image_rotation_deg, 0);
+  CHECK_OPTION_GT(max_shared_image_relative_distance, 0);
   return true;
 }
 
@@ -158,6 +161,44 @@ PairwiseSimilarity EstimatePairwiseSimilarity(
   }
   similarity.success = false;
   return similarity;
+}
+
+SharedImageAgreement CheckSharedImages(
+    const Reconstruction& reconstruction1,
+    const Reconstruction& reconstruction2,
+    const Sim3d& second_from_first,
+    const double spread,
+    const PairwiseSimilarityOptions& options) {
+  THROW_CHECK(options.Check());
+  THROW_CHECK_GT(spread, 0);
+  SharedImageAgreement agreement;
+  for (const image_t image_id : reconstruction1.RegImageIds()) {
+    if (!reconstruction2.ExistsImage(image_id) ||
+        !reconstruction2.IsImageRegistered(image_id)) {
+      continue;
+    }
+    const Image& image1 = reconstruction1.Image(image_id);
+    const Image& image2 = reconstruction2.Image(image_id);
+    // The pose in the second frame that the transform predicts.
+    const Eigen::Quaterniond predicted_rotation =
+        image1.CamFromWorld().rotation * second_from_first.rotation.inverse();
+    const Eigen::Vector3d predicted_center =
+        second_from_first * image1.ProjectionCenter();
+    const double rotation_deg = RadToDeg(
+        predicted_rotation.angularDistance(image2.CamFromWorld().rotation));
+    const double relative_distance =
+        (predicted_center - image2.ProjectionCenter()).norm() / spread;
+    ++agreement.num_shared_images;
+    if (rotation_deg <= options.max_shared_image_rotation_deg &&
+        relative_distance <= options.max_shared_image_relative_distance) {
+      ++agreement.num_agreeing;
+    }
+    agreement.max_rotation_deg =
+        std::max(agreement.max_rotation_deg, rotation_deg);
+    agreement.max_relative_distance =
+        std::max(agreement.max_relative_distance, relative_distance);
+  }
+  return agreement;
 }
 
 }  // namespace colmap

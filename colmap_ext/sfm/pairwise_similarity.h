@@ -78,6 +78,16 @@ struct PairwiseSimilarityOptions {
   // structure, the latter can have the larger support).
   int max_num_hypotheses = 3;
 
+  // A shared image (registered by both reconstructions) agrees with a
+  // transform if the transform maps its pose in the first onto its pose in
+  // the second within this rotation (degrees) and this distance, as a
+  // fraction of the correspondences' spread in the second (see
+  // CheckSharedImages). Measured: right links placed their shared images
+  // within 3.2 deg and 0.42 spreads (an open chain's drifting ends), wrongly
+  // registered images were 17 deg or 2.1 spreads off or more.
+  double max_shared_image_rotation_deg = 10.0;
+  double max_shared_image_relative_distance = 1.0;
+
   bool Check() const;
 };
 
@@ -105,5 +115,30 @@ PairwiseSimilarity EstimatePairwiseSimilarity(
     const PairwiseSimilarityOptions& options,
     const std::function<bool(const PairwiseSimilarity&)>& accept,
     int* num_rejected);
+
+// The images that both reconstructions registered, checked against a
+// transform X2 = s R X1 + t: a right transform between two right models
+// maps every shared image's pose in the first onto its pose in the second.
+// One that leaves some apart disagrees with one of the models (a model that
+// registered an image of its neighbour in the wrong place, say): where
+// nothing else checks the transform, that is reason not to trust it.
+struct SharedImageAgreement {
+  int num_shared_images = 0;
+  int num_agreeing = 0;
+  // Largest rotation (degrees) and relative distance over the shared images.
+  double max_rotation_deg = 0.0;
+  double max_relative_distance = 0.0;
+
+  bool AllAgree() const { return num_agreeing == num_shared_images; }
+};
+
+// `spread`: the distance unit, the correspondences' spread in the second
+// reconstruction (MedianDistanceToMedian).
+SharedImageAgreement CheckSharedImages(
+    const Reconstruction& reconstruction1,
+    const Reconstruction& reconstruction2,
+    const Sim3d& second_from_first,
+    double spread,
+    const PairwiseSimilarityOptions& options);
 
 }  // namespace colmap

@@ -154,6 +154,56 @@ TEST_F(PairwiseSimilarityTest, EachPointPairCountsOnce) {
             num_unique);
 }
 
+TEST_F(PairwiseSimilarityTest, SharedImagesConfirmOnlyTheRightTransform) {
+  // Model 1 borrowed three images of community 2.
+  std::set<image_t> borrowed(images2_.begin(), std::next(images2_.begin(), 3));
+  std::set<image_t> extended1 = images1_;
+  extended1.insert(borrowed.begin(), borrowed.end());
+  Reconstruction model1 =
+      CommunityModel(scene_.ground_truth, extended1, community1_from_world_);
+  const Reconstruction model2 =
+      CommunityModel(scene_.ground_truth, images2_, community2_from_world_);
+  std::vector<Eigen::Vector3d> points2;
+  for (const auto& point3D : model2.Points3D()) {
+    points2.push_back(point3D.second.xyz);
+  }
+  const double spread = MedianDistanceToMedian(points2);
+  const Sim3d truth = community2_from_world_ * Inverse(community1_from_world_);
+  const PairwiseSimilarityOptions options;
+
+  SharedImageAgreement agreement =
+      CheckSharedImages(model1, model2, truth, spread, options);
+  EXPECT_EQ(agreement.num_shared_images, 3);
+  EXPECT_EQ(agreement.num_agreeing, 3);
+  EXPECT_TRUE(agreement.AllAgree());
+  EXPECT_LT(agreement.max_rotation_deg, 1e-6);
+  EXPECT_LT(agreement.max_relative_distance, 1e-6);
+
+  // A transform 20 degrees off places none alike.
+  const Sim3d wrong = Sim3d(1,
+                            Eigen::Quaterniond(Eigen::AngleAxisd(
+                                DegToRad(20.0), Eigen::Vector3d::UnitY())),
+                            Eigen::Vector3d::Zero()) *
+                      truth;
+  agreement = CheckSharedImages(model1, model2, wrong, spread, options);
+  EXPECT_EQ(agreement.num_agreeing, 0);
+  EXPECT_NEAR(agreement.max_rotation_deg, 20.0, 1e-6);
+
+  // Model 1 turned one borrowed image by 30 degrees about its centre: the
+  // right transform places the other two alike.
+  Rigid3d& cam_from_world = model1.Image(*borrowed.begin()).CamFromWorld();
+  const Eigen::Quaterniond turn(
+      Eigen::AngleAxisd(DegToRad(30.0), Eigen::Vector3d::UnitZ()));
+  cam_from_world = Rigid3d(turn * cam_from_world.rotation,
+                           turn * cam_from_world.translation);
+  agreement = CheckSharedImages(model1, model2, truth, spread, options);
+  EXPECT_EQ(agreement.num_shared_images, 3);
+  EXPECT_EQ(agreement.num_agreeing, 2);
+  EXPECT_FALSE(agreement.AllAgree());
+  EXPECT_NEAR(agreement.max_rotation_deg, 30.0, 1e-6);
+  EXPECT_LT(agreement.max_relative_distance, 1e-6);
+}
+
 TEST(EstimatePairwiseSimilarity, TooFewCorrespondences) {
   PointCorrespondences correspondences;
   for (int i = 0; i < 5; ++i) {

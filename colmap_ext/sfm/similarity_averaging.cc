@@ -253,6 +253,7 @@ bool SimilarityAveragingOptions::Check() const {
   CHECK_OPTION_GT(max_log_scale_residual, 0);
   CHECK_OPTION_GT(max_relative_translation_residual, 0);
   CHECK_OPTION_GE(max_num_rejection_rounds, 0);
+  CHECK_OPTION_GE(min_num_shared_images_in_doubt, 0);
   CHECK_OPTION_GT(doubtful_weight, 0);
   CHECK_OPTION_LE(doubtful_weight, 1);
   CHECK_OPTION_GT(full_support_num_inliers, 0);
@@ -452,8 +453,55 @@ SimilarityAveragingResult AverageSimilarities(
         }
       }
     }
-    if (!rejected && !failed) {
+    if (rejected || failed) {
+      continue;
+    }
+
+    // Edges of a community in doubt that no cycle of kept edges checks
+    // (bridges): their residuals are zero whatever they are worth. The
+    // images both models registered must confirm such an edge.
+    std::vector<int> unconfirmed_communities;
+    for (size_t e = 0; e < relative_similarities.size(); ++e) {
+      const RelativeSimilarity& edge = relative_similarities[e];
+      if (!result.edges[e].kept || !(communities[edge.community1].doubtful ||
+                                     communities[edge.community2].doubtful)) {
+        continue;
+      }
+      if (edge.num_shared_images >= options.min_num_shared_images_in_doubt &&
+          edge.num_agreeing_shared_images == edge.num_shared_images) {
+        continue;
+      }
+      std::vector<std::pair<int, int>> other_edges;
+      for (size_t f = 0; f < relative_similarities.size(); ++f) {
+        if (f != e && result.edges[f].kept) {
+          other_edges.emplace_back(relative_similarities[f].community1,
+                                   relative_similarities[f].community2);
+        }
+      }
+      const std::vector<int> labels =
+          ConnectedComponentLabels(num_communities, other_edges);
+      if (labels[edge.community1] != labels[edge.community2]) {
+        result.edges[e].kept = false;
+        result.edges[e].unconfirmed = true;
+        unconfirmed_communities.push_back(edge.community1);
+        unconfirmed_communities.push_back(edge.community2);
+      }
+    }
+    if (unconfirmed_communities.empty()) {
       break;
+    }
+    // A community in doubt that no kept edge joins any more leaves.
+    std::fill(num_kept_edges.begin(), num_kept_edges.end(), 0);
+    for (size_t e = 0; e < relative_similarities.size(); ++e) {
+      if (result.edges[e].kept) {
+        ++num_kept_edges[relative_similarities[e].community1];
+        ++num_kept_edges[relative_similarities[e].community2];
+      }
+    }
+    for (const int community : unconfirmed_communities) {
+      if (communities[community].doubtful && num_kept_edges[community] == 0) {
+        result.excluded[community] = true;
+      }
     }
   }
 

@@ -33,9 +33,19 @@
 // images can still be registered into the merged model later): a community
 // that drifts or broke inside itself cannot be aligned to all its
 // neighbours by one similarity, and keeping it by its last edge would bend
-// the merged model. If the kept edges no
-// longer connect all communities, every connected part gets its own frame,
-// since a wrong merge is worse than two models.
+// the merged model. An edge that lies on no cycle of kept edges (a bridge)
+// has zero residuals whatever it is worth: if it joins a community in
+// doubt, it is kept only if the images both communities registered confirm
+// it, at least two of them and every one placed alike by the two models
+// under its similarity. On South Building, a community that broke into two
+// models had registered three of its neighbour's images 5 units off (extent
+// 11); its only link to that neighbour placed 3 of 6 shared images alike
+// (85 deg, 9.9 spreads apart) and merged the neighbour wrongly. Right links
+// on South Building, a generated loop and an open chain placed all their
+// shared images alike but for single borrowed images placed wrongly by one
+// model (there, the other links check the community). If the kept edges
+// no longer connect all communities, every connected part gets its own
+// frame, since a wrong merge is worse than two models.
 
 #pragma once
 
@@ -62,6 +72,10 @@ struct RelativeSimilarity {
   std::vector<std::pair<point3D_t, point3D_t>> point3D_ids;
   // Support (number of inlier correspondences).
   double num_inliers = 0;
+  // Images both models registered, and how many of them the similarity
+  // maps onto their other copy (pairwise_similarity.h, CheckSharedImages).
+  int num_shared_images = 0;
+  int num_agreeing_shared_images = 0;
 };
 
 // A community as the averaging sees it.
@@ -106,6 +120,12 @@ struct SimilarityAveragingOptions {
   // median community's.
   double min_relative_size = 0.5;
 
+  // An edge of a community in doubt that lies on no cycle of kept edges is
+  // dropped unless at least this many images were registered by both
+  // communities and every one is placed alike by the two models under its
+  // similarity.
+  int min_num_shared_images_in_doubt = 2;
+
   bool Check() const;
 };
 
@@ -116,6 +136,10 @@ struct SimilarityAveragingResult {
     double relative_translation_residual = 0.0;
     // Whether the edge joins its communities in the result.
     bool kept = false;
+    // Dropped because nothing confirms it: it joins a community in doubt,
+    // no cycle of kept edges passes through it, and its shared images
+    // disagree or are too few.
+    bool unconfirmed = false;
   };
 
   // Part (connected by kept edges) of each community, 0..NumParts()-1,

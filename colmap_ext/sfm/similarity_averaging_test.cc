@@ -418,6 +418,70 @@ TEST(AverageSimilarities, DoubtfulCommunityThatBreaksACycleLeavesTheMerge) {
   EXPECT_EQ(result.NumParts(), 2);
 }
 
+TEST(AverageSimilarities, DoubtfulCommunityNeedsItsSharedImagesOnABridge) {
+  // A path 0 - 1 - 2 of three communities: no cycle checks any edge.
+  Problem problem = MakeCycle({150, 120, 110}, 23);
+  std::vector<RelativeSimilarity> path;
+  for (const RelativeSimilarity& edge : problem.edges) {
+    if (std::max(edge.community1, edge.community2) -
+            std::min(edge.community1, edge.community2) ==
+        1) {
+      path.push_back(edge);
+    }
+  }
+  ASSERT_EQ(path.size(), 2);
+  for (RelativeSimilarity& edge : path) {
+    edge.num_shared_images = 6;
+    edge.num_agreeing_shared_images = 6;
+  }
+  std::vector<AveragedCommunity> communities = problem.Communities();
+  communities[1].doubtful = true;
+  // Confirmed by all their shared images: one part.
+  EXPECT_EQ(AverageSimilarities(communities, path, SimilarityAveragingOptions())
+                .NumParts(),
+            1);
+
+  // Community 1 in doubt and 3 of the 6 images it shares with community 2
+  // placed elsewhere: that edge goes, community 2 stands alone.
+  const int edge12 =
+      std::max(path[0].community1, path[0].community2) == 2 ? 0 : 1;
+  path[edge12].num_agreeing_shared_images = 3;
+  SimilarityAveragingResult result =
+      AverageSimilarities(communities, path, SimilarityAveragingOptions());
+  EXPECT_FALSE(result.edges[edge12].kept);
+  EXPECT_TRUE(result.edges[edge12].unconfirmed);
+  EXPECT_TRUE(result.edges[1 - edge12].kept);
+  EXPECT_EQ(result.NumParts(), 2);
+  EXPECT_EQ(result.part_of_community[0], result.part_of_community[1]);
+  EXPECT_NE(result.part_of_community[2], result.part_of_community[0]);
+  EXPECT_EQ(result.excluded, (std::vector<bool>{false, false, false}));
+
+  // Without doubt, the same edge stays: a single borrowed image placed
+  // wrongly by a sound model does not cut the merge.
+  communities[1].doubtful = false;
+  EXPECT_EQ(AverageSimilarities(communities, path, SimilarityAveragingOptions())
+                .NumParts(),
+            1);
+
+  // In doubt with both edges unconfirmed (too few shared images): it
+  // leaves the merge.
+  communities[1].doubtful = true;
+  for (RelativeSimilarity& edge : path) {
+    edge.num_shared_images = 1;
+    edge.num_agreeing_shared_images = 1;
+  }
+  result = AverageSimilarities(communities, path, SimilarityAveragingOptions());
+  EXPECT_EQ(result.excluded, (std::vector<bool>{false, true, false}));
+  EXPECT_EQ(result.NumParts(), 3);
+
+  // On a cycle, the residuals check the doubtful community's edges instead.
+  std::vector<RelativeSimilarity> cycle = problem.edges;
+  ASSERT_EQ(cycle.size(), 3);
+  result =
+      AverageSimilarities(communities, cycle, SimilarityAveragingOptions());
+  EXPECT_EQ(result.NumParts(), 1);
+}
+
 TEST(AverageSimilarities, WeaklySupportedEdgeTakesUpTheDisagreement) {
   // Communities of equal standing; the wrong edge has the fewest inliers.
   // It alone is dropped and no community leaves the merge.
