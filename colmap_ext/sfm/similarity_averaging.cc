@@ -327,6 +327,17 @@ SimilarityAveragingResult AverageSimilarities(
         !result.excluded[relative_similarities[e].community2];
   }
 
+  const auto CountKeptEdges = [&]() {
+    std::vector<int> num_kept_edges(num_communities, 0);
+    for (size_t e = 0; e < relative_similarities.size(); ++e) {
+      if (result.edges[e].kept) {
+        ++num_kept_edges[relative_similarities[e].community1];
+        ++num_kept_edges[relative_similarities[e].community2];
+      }
+    }
+    return num_kept_edges;
+  };
+
   std::vector<std::vector<int>> parts;
   for (int round = 0;; ++round) {
     // Connected parts over the kept edges.
@@ -434,13 +445,7 @@ SimilarityAveragingResult AverageSimilarities(
     // edges has nothing that confirms its own model against the rejected
     // edge: it leaves. With two or more, the others agree on where it is and
     // the rejected similarity was the odd one out.
-    std::vector<int> num_kept_edges(num_communities, 0);
-    for (size_t e = 0; e < relative_similarities.size(); ++e) {
-      if (result.edges[e].kept) {
-        ++num_kept_edges[relative_similarities[e].community1];
-        ++num_kept_edges[relative_similarities[e].community2];
-      }
-    }
+    std::vector<int> num_kept_edges = CountKeptEdges();
     for (const int community : to_exclude) {
       if (num_kept_edges[community] >= 2) {
         continue;
@@ -491,13 +496,7 @@ SimilarityAveragingResult AverageSimilarities(
       break;
     }
     // A community in doubt that no kept edge joins any more leaves.
-    std::fill(num_kept_edges.begin(), num_kept_edges.end(), 0);
-    for (size_t e = 0; e < relative_similarities.size(); ++e) {
-      if (result.edges[e].kept) {
-        ++num_kept_edges[relative_similarities[e].community1];
-        ++num_kept_edges[relative_similarities[e].community2];
-      }
-    }
+    num_kept_edges = CountKeptEdges();
     for (const int community : unconfirmed_communities) {
       if (communities[community].doubtful && num_kept_edges[community] == 0) {
         result.excluded[community] = true;
