@@ -166,6 +166,7 @@ std::shared_ptr<Reconstruction> MergePart(
   for (const int c : part_communities) {
     (*models)[c].reset();  // Joined: the community's copy is not needed.
   }
+  ReleaseFreedMemory();
 
   std::vector<std::pair<point3D_t, point3D_t>> corresponding_points;
   for (size_t e = 0; e < similarities.size(); ++e) {
@@ -988,6 +989,7 @@ bool CommunityMapperController::RunAllStages() {
     });
   }
   thread_pool.Wait();
+  ReleaseFreedMemory();  // The workers' heaps (see process_memory.h).
   end_phase("Communities");
   if (CheckIfStopped()) {
     return false;

@@ -5,6 +5,10 @@
 #include <fstream>
 #include <sstream>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 namespace colmap {
 
 ProcessMemory ReadProcessMemory() {
@@ -35,6 +39,14 @@ std::string ProcessMemoryToString(const ProcessMemory& memory) {
   return StringPrintf("memory %.0f MB, peak %.0f MB",
                       memory.resident_mb,
                       memory.peak_resident_mb);
+}
+
+bool ReleaseFreedMemory() {
+#if defined(__GLIBC__)
+  return malloc_trim(0) != 0;
+#else
+  return false;
+#endif
 }
 
 }  // namespace colmap

@@ -19,4 +19,12 @@ ProcessMemory ReadProcessMemory();
 // "memory 812 MB, peak 1034 MB" (empty where unknown).
 std::string ProcessMemoryToString(const ProcessMemory& memory);
 
+// Hands the heap memory that freed allocations left to the process back to
+// the system (glibc: malloc_trim; elsewhere nothing). glibc gives every
+// thread that allocates an arena of its own and keeps what is freed there
+// for that arena: the memory of the community reconstructions, freed on the
+// worker threads, would otherwise stay resident while the merge allocates
+// anew on the main thread. Returns whether memory was released.
+bool ReleaseFreedMemory();
+
 }  // namespace colmap
