@@ -249,26 +249,32 @@ TEST(DetectCommunities, WeightsRevealStructureThatUnitWeightsHide) {
   }
 }
 
-// Splits every graph of more than 8 vertices into two halves (by vertex
-// index) with a fixed modularity: exercises the recursion alone.
-class HalvingPartitioner : public GraphPartitioner {
+// Splits every graph of more than 8 vertices in two by vertex index, the
+// first `fraction` of them (rounded up) and the rest, with a fixed
+// modularity: exercises the recursion alone.
+class FractionPartitioner : public GraphPartitioner {
  public:
-  explicit HalvingPartitioner(double modularity) : modularity_(modularity) {}
-  std::string Name() const override { return "halving"; }
+  explicit FractionPartitioner(double modularity, double fraction = 0.5)
+      : modularity_(modularity), fraction_(fraction) {}
+  std::string Name() const override { return "fraction"; }
   Result Partition(const WeightedGraph& graph) const override {
     Result result;
-    result.membership.resize(graph.num_vertices);
-    for (int i = 0; i < graph.num_vertices; ++i) {
-      result.membership[i] =
-          (graph.num_vertices > 8 && i >= graph.num_vertices / 2) ? 1 : 0;
+    result.membership.assign(graph.num_vertices, 0);
+    if (graph.num_vertices <= 8) {
+      result.num_communities = 1;
+      return result;
     }
-    result.num_communities = graph.num_vertices > 8 ? 2 : 1;
-    result.modularity = graph.num_vertices > 8 ? modularity_ : 0.0;
+    for (int i = 0; i < graph.num_vertices; ++i) {
+      result.membership[i] = i < fraction_ * graph.num_vertices ? 0 : 1;
+    }
+    result.num_communities = 2;
+    result.modularity = modularity_;
     return result;
   }
 
  private:
   const double modularity_;
+  const double fraction_;
 };
 
 WeightedGraph Path(const int num_vertices) {
@@ -283,7 +289,7 @@ WeightedGraph Path(const int num_vertices) {
 TEST(DetectCommunities, RecursesUntilNoCommunitySplits) {
   const CommunityPartition partition =
       DetectCommunities(Path(32),
-                        HalvingPartitioner(/*modularity=*/0.5),
+                        FractionPartitioner(/*modularity=*/0.5),
                         Options(/*min_community_size=*/2));
   // 32 -> 16 -> 8: four communities of eight consecutive vertices.
   ASSERT_EQ(partition.NumCommunities(), 4);
@@ -303,7 +309,7 @@ TEST(DetectCommunities, CommunityHoldingMoreThanItsShareIsSplit) {
   // and two parts reach the minimum size.
   CommunityDetectionOptions options = Options(/*min_community_size=*/8);
   const CommunityPartition partition = DetectCommunities(
-      Path(32), HalvingPartitioner(/*modularity=*/0.1), options);
+      Path(32), FractionPartitioner(/*modularity=*/0.1), options);
   EXPECT_EQ(partition.NumCommunities(), 2);
   EXPECT_EQ(NumCommunitiesAmong(partition, 0, 16), 1);
   EXPECT_EQ(NumCommunitiesAmong(partition, 16, 16), 1);
@@ -314,43 +320,17 @@ TEST(DetectCommunities, CommunityHoldingMoreThanItsShareIsSplit) {
   // Parts below the minimum size: no split.
   options.min_community_size = 17;
   EXPECT_EQ(DetectCommunities(
-                Path(32), HalvingPartitioner(/*modularity=*/0.1), options)
+                Path(32), FractionPartitioner(/*modularity=*/0.1), options)
                 .NumCommunities(),
             1);
   // The paper's rule alone.
   options = Options(/*min_community_size=*/8);
   options.max_community_fraction = 1;
   EXPECT_EQ(DetectCommunities(
-                Path(32), HalvingPartitioner(/*modularity=*/0.1), options)
+                Path(32), FractionPartitioner(/*modularity=*/0.1), options)
                 .NumCommunities(),
             1);
 }
-
-// Splits off the first `fraction` of the vertices (at least 9 vertices).
-class FractionPartitioner : public GraphPartitioner {
- public:
-  FractionPartitioner(double fraction, double modularity)
-      : fraction_(fraction), modularity_(modularity) {}
-  std::string Name() const override { return "fraction"; }
-  Result Partition(const WeightedGraph& graph) const override {
-    Result result;
-    result.membership.assign(graph.num_vertices, 0);
-    if (graph.num_vertices <= 8) {
-      result.num_communities = 1;
-      return result;
-    }
-    for (int i = 0; i < graph.num_vertices; ++i) {
-      result.membership[i] = i < fraction_ * graph.num_vertices ? 0 : 1;
-    }
-    result.num_communities = 2;
-    result.modularity = modularity_;
-    return result;
-  }
-
- private:
-  const double fraction_;
-  const double modularity_;
-};
 
 TEST(DetectCommunities, BalanceRuleCutsOnlyOnce) {
   // 40 images without structure: the balance rule cuts them 16 / 24. The
@@ -358,7 +338,9 @@ TEST(DetectCommunities, BalanceRuleCutsOnlyOnce) {
   // they have no structure either: they stay one community.
   CommunityDetectionOptions options = Options(/*min_community_size=*/8);
   const CommunityPartition partition = DetectCommunities(
-      Path(40), FractionPartitioner(0.4, /*modularity=*/0.1), options);
+      Path(40),
+      FractionPartitioner(/*modularity=*/0.1, /*fraction=*/0.4),
+      options);
   EXPECT_EQ(partition.NumCommunities(), 2);
   EXPECT_EQ(NumCommunitiesAmong(partition, 0, 16), 1);
   EXPECT_EQ(NumCommunitiesAmong(partition, 16, 24), 1);
@@ -370,7 +352,9 @@ TEST(DetectCommunities, BalanceRuleCutsOnlyOnce) {
   // Above the threshold, the parts of a balance cut still split.
   options.modularity_threshold = 0.05;
   EXPECT_GT(DetectCommunities(
-                Path(40), FractionPartitioner(0.4, /*modularity=*/0.1), options)
+                Path(40),
+                FractionPartitioner(/*modularity=*/0.1, /*fraction=*/0.4),
+                options)
                 .NumCommunities(),
             2);
 }
@@ -380,7 +364,7 @@ TEST(DetectCommunities, ModularityAtThresholdDoesNotSplit) {
   options.modularity_threshold = 0.5;
   options.max_community_fraction = 1;
   const CommunityPartition partition = DetectCommunities(
-      Path(32), HalvingPartitioner(/*modularity=*/0.5), options);
+      Path(32), FractionPartitioner(/*modularity=*/0.5), options);
   EXPECT_EQ(partition.NumCommunities(), 1);
 }
 
