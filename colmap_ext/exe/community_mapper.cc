@@ -85,6 +85,15 @@ bool CheckCommandOptions(const CommunityMapperCommand& command) {
         "positive.",
         options.refinement.initial_trust_region_radius));
   }
+  if (options.refinement.track_selection.grid_size < 1 ||
+      options.refinement.track_selection.min_tracks_per_image < 0) {
+    fail(StringPrintf(
+        "--CommunityMapper.ba_track_grid_size (%d) must be positive and "
+        "--CommunityMapper.ba_min_tracks_per_image (%d) 0 or more; "
+        "--CommunityMapper.reduced_adjustment 0 adjusts over all tracks.",
+        options.refinement.track_selection.grid_size,
+        options.refinement.track_selection.min_tracks_per_image));
+  }
   if (options.pose_graph.min_num_shared_points < 1 ||
       options.pose_graph.max_num_neighbors < 1) {
     fail(StringPrintf(
@@ -598,6 +607,18 @@ void ParseCommand(int argc,
       &mapper_options.refinement.initial_trust_region_radius,
       "initial Levenberg-Marquardt trust region radius of the merged model's "
       "bundle adjustments");
+  add("reduced_adjustment",
+      &mapper_options.refinement.reduced_adjustment,
+      "adjust the merged model's cameras on a selected subset of its tracks "
+      "(spread over every image), then the other points with the cameras "
+      "fixed; 0: every adjustment over all observations");
+  add("ba_track_grid_size",
+      &mapper_options.refinement.track_selection.grid_size,
+      "reduced adjustment: cells per side of the image grid over which the "
+      "tracks are selected (the best track of every cell)");
+  add("ba_min_tracks_per_image",
+      &mapper_options.refinement.track_selection.min_tracks_per_image,
+      "reduced adjustment: selected tracks every image observes at least");
   add("sparse_solver",
       &mapper_options.refinement.sparse_solver,
       "use the sparse direct solver in the merged model's bundle adjustment "

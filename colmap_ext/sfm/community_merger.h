@@ -18,6 +18,8 @@
 
 #pragma once
 
+#include "colmap_ext/sfm/reduced_bundle_adjustment.h"
+
 #include "colmap/controllers/incremental_mapper.h"
 #include "colmap/geometry/sim3.h"
 #include "colmap/scene/database_cache.h"
@@ -89,6 +91,22 @@ struct MergedModelRefinementOptions {
   // Use Ceres' sparse direct Schur solver at any size (COLMAP switches to
   // the iterative one above 1000 images).
   bool sparse_solver = true;
+
+  // The bundle adjustments of step (3) adjust the cameras on a subset of
+  // the tracks, selected per image over a grid (long, accurate tracks
+  // spread over every image), and then refine the other points with the
+  // cameras fixed, in problems of at most `max_points_per_problem` points
+  // (reduced_bundle_adjustment.h). The last adjustment is over all
+  // observations, once the correspondences are released: a subset leaves
+  // every camera noisier (the noise averages over fewer observations).
+  // Measured on a generated dense scene of 560 images (merge stage rerun on
+  // the same communities): peak memory 805 MB instead of 995 MB, the
+  // refinement 176 s instead of 196 s, median / 90th-percentile camera
+  // error 0.0039 / 0.0123 against 0.0040 / 0.0120. Without it, every
+  // adjustment is over all observations, with the correspondences held.
+  bool reduced_adjustment = true;
+  TrackSelectionOptions track_selection;
+  int max_points_per_problem = 50000;
 
   // The bundle adjustments stop once an iteration lowers the cost by less
   // than this fraction. The joined communities are each optimal already, so

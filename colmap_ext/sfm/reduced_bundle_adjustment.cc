@@ -1,0 +1,265 @@
+#include "colmap_ext/sfm/reduced_bundle_adjustment.h"
+
+#include "colmap/estimators/cost_functions.h"
+#include "colmap/util/logging.h"
+#include "colmap/util/misc.h"
+#include "colmap/util/threading.h"
+#include "colmap/util/timer.h"
+
+#include <algorithm>
+#include <limits>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace colmap {
+namespace {
+
+// Orders tracks for selection: longer first (up to the long track length),
+// then smaller reprojection error (unknown errors last), then id.
+struct TrackRank {
+  int length;
+  double error;
+  point3D_t point3D_id;
+
+  bool operator<(const TrackRank& other) const {
+    if (length != other.length) return length > other.length;
+    if (error != other.error) return error < other.error;
+    return point3D_id < other.point3D_id;
+  }
+};
+
+TrackRank RankOf(const TrackSelectionOptions& options,
+                 const point3D_t point3D_id,
+                 const Point3D& point3D) {
+  return {
+      std::min(static_cast<int>(point3D.track.Length()),
+               options.long_track_length),
+      point3D.error < 0 ? std::numeric_limits<double>::max() : point3D.error,
+      point3D_id};
+}
+
+}  // namespace
+
+bool TrackSelectionOptions::Check() const {
+  CHECK_OPTION_GT(grid_size, 0);
+  CHECK_OPTION_GE(long_track_length, 2);
+  CHECK_OPTION_GE(min_tracks_per_image, 0);
+  return true;
+}
+
+std::unordered_set<point3D_t> SelectBundleTracks(
+    const TrackSelectionOptions& options,
+    const Reconstruction& reconstruction) {
+  THROW_CHECK(options.Check());
+  std::unordered_set<point3D_t> selected;
+  std::vector<TrackRank> ranks;
+  for (const image_t image_id : reconstruction.RegImageIds()) {
+    const Image& image = reconstruction.Image(image_id);
+    const Camera& camera = reconstruction.Camera(image.CameraId());
+    const double cell_width =
+        std::max<double>(camera.width, 1) / options.grid_size;
+    const double cell_height =
+        std::max<double>(camera.height, 1) / options.grid_size;
+    auto cell_index = [&options](const double coordinate,
+                                 const double cell_size) {
+      return std::max(0,
+                      std::min(static_cast<int>(coordinate / cell_size),
+                               options.grid_size - 1));
+    };
+    // Per cell: the best track observed there, unless a track selected
+    // for an earlier image already is.
+    std::unordered_map<int, TrackRank> best_in_cell;
+    std::unordered_set<int> covered_cells;
+    int num_selected = 0;
+    ranks.clear();
+    for (const Point2D& point2D : image.Points2D()) {
+      if (!point2D.HasPoint3D()) {
+        continue;
+      }
+      const int cell =
+          cell_index(point2D.xy.y(), cell_height) * options.grid_size +
+          cell_index(point2D.xy.x(), cell_width);
+      if (selected.count(point2D.point3D_id)) {
+        covered_cells.insert(cell);
+        ++num_selected;
+        continue;
+      }
+      const TrackRank rank = RankOf(options,
+                                    point2D.point3D_id,
+                                    reconstruction.Point3D(point2D.point3D_id));
+      ranks.push_back(rank);
+      const auto inserted = best_in_cell.emplace(cell, rank);
+      if (!inserted.second && rank < inserted.first->second) {
+        inserted.first->second = rank;
+      }
+    }
+    for (const auto& cell : best_in_cell) {
+      if (covered_cells.count(cell.first) == 0) {
+        num_selected += selected.insert(cell.second.point3D_id).second;
+      }
+    }
+    // Tracks crowded into few cells: the image's next best ones.
+    if (num_selected < options.min_tracks_per_image) {
+      std::sort(ranks.begin(), ranks.end());
+      for (const TrackRank& rank : ranks) {
+        if (num_selected >= options.min_tracks_per_image) {
+          break;
+        }
+        num_selected += selected.insert(rank.point3D_id).second;
+      }
+    }
+  }
+  return selected;
+}
+
+bool AdjustCamerasOnTracks(const BundleAdjustmentOptions& ba_options,
+                           ceres::Solver::Options solver_options,
+                           const std::unordered_set<point3D_t>& point3D_ids,
+                           Reconstruction* reconstruction) {
+  THROW_CHECK_NOTNULL(reconstruction);
+  THROW_CHECK(ba_options.Check());
+  const std::vector<image_t>& reg_image_ids = reconstruction->RegImageIds();
+  if (reg_image_ids.size() < 2 || point3D_ids.empty()) {
+    return false;
+  }
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  const std::unique_ptr<ceres::LossFunction> loss_function(
+      ba_options.CreateLossFunction());
+
+  std::unordered_set<image_t> image_ids;
+  std::unordered_set<camera_t> camera_ids;
+  for (const point3D_t point3D_id : point3D_ids) {
+    Point3D& point3D = reconstruction->Point3D(point3D_id);
+    for (const TrackElement& track_el : point3D.track.Elements()) {
+      Image& image = reconstruction->Image(track_el.image_id);
+      Camera& camera = reconstruction->Camera(image.CameraId());
+      if (image_ids.insert(track_el.image_id).second) {
+        // The cost function assumes unit quaternions.
+        image.CamFromWorld().rotation.normalize();
+      }
+      camera_ids.insert(image.CameraId());
+      problem.AddResidualBlock(
+          CameraCostFunction<ReprojErrorCostFunction>(
+              camera.model_id, image.Point2D(track_el.point2D_idx).xy),
+          loss_function.get(),
+          image.CamFromWorld().rotation.coeffs().data(),
+          image.CamFromWorld().translation.data(),
+          point3D.xyz.data(),
+          camera.params.data());
+    }
+  }
+
+  for (const image_t image_id : image_ids) {
+    Rigid3d& cam_from_world = reconstruction->Image(image_id).CamFromWorld();
+    if (image_id == reg_image_ids[0] || !ba_options.refine_extrinsics) {
+      problem.SetParameterBlockConstant(
+          cam_from_world.rotation.coeffs().data());
+      problem.SetParameterBlockConstant(cam_from_world.translation.data());
+      continue;
+    }
+    SetQuaternionManifold(&problem, cam_from_world.rotation.coeffs().data());
+    if (image_id == reg_image_ids[1]) {
+      SetSubsetManifold(3, {0}, &problem, cam_from_world.translation.data());
+    }
+  }
+  for (const camera_t camera_id : camera_ids) {
+    Camera& camera = reconstruction->Camera(camera_id);
+    std::vector<int> constant_params;
+    auto hold = [&constant_params](const span<const size_t> idxs) {
+      constant_params.insert(constant_params.end(), idxs.begin(), idxs.end());
+    };
+    if (!ba_options.refine_focal_length) hold(camera.FocalLengthIdxs());
+    if (!ba_options.refine_principal_point) hold(camera.PrincipalPointIdxs());
+    if (!ba_options.refine_extra_params) hold(camera.ExtraParamsIdxs());
+    if (constant_params.size() == camera.params.size()) {
+      problem.SetParameterBlockConstant(camera.params.data());
+    } else if (!constant_params.empty()) {
+      SetSubsetManifold(static_cast<int>(camera.params.size()),
+                        constant_params,
+                        &problem,
+                        camera.params.data());
+    }
+  }
+
+  solver_options.num_threads =
+      GetEffectiveNumThreads(solver_options.num_threads);
+  std::string solver_error;
+  THROW_CHECK(solver_options.IsValid(&solver_error)) << solver_error;
+  Timer timer;
+  timer.Start();
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+  LOG(INFO) << StringPrintf(
+      "Bundle adjustment of %d images on %d of %d points, %d residuals: %d "
+      "iterations, cost %.4g -> %.4g, %.1fs (%s)",
+      static_cast<int>(image_ids.size()),
+      static_cast<int>(point3D_ids.size()),
+      static_cast<int>(reconstruction->NumPoints3D()),
+      problem.NumResiduals(),
+      static_cast<int>(summary.iterations.size()),
+      summary.initial_cost,
+      summary.final_cost,
+      timer.ElapsedSeconds(),
+      ceres::LinearSolverTypeToString(solver_options.linear_solver_type));
+  return summary.IsSolutionUsable();
+}
+
+size_t RefinePointsWithFixedCameras(
+    const BundleAdjustmentOptions& ba_options,
+    const std::unordered_set<point3D_t>& excluded_point3D_ids,
+    const int max_points_per_problem,
+    Reconstruction* reconstruction) {
+  THROW_CHECK_NOTNULL(reconstruction);
+  THROW_CHECK_GT(max_points_per_problem, 0);
+  BundleAdjustmentOptions options = ba_options;
+  options.loss_function_type =
+      BundleAdjustmentOptions::LossFunctionType::TRIVIAL;
+  options.print_summary = false;
+  options.solver_options.max_num_iterations =
+      std::min(options.solver_options.max_num_iterations, 10);
+
+  std::vector<point3D_t> point3D_ids;
+  point3D_ids.reserve(reconstruction->NumPoints3D());
+  for (const auto& point3D : reconstruction->Points3D()) {
+    if (excluded_point3D_ids.count(point3D.first) == 0) {
+      point3D_ids.push_back(point3D.first);
+    }
+  }
+  std::vector<Eigen::Vector3d> initial_xyz;
+  for (size_t begin = 0; begin < point3D_ids.size();
+       begin += max_points_per_problem) {
+    const size_t end =
+        std::min(point3D_ids.size(),
+                 begin + static_cast<size_t>(max_points_per_problem));
+    BundleAdjustmentConfig config;
+    initial_xyz.clear();
+    for (size_t k = begin; k < end; ++k) {
+      config.AddVariablePoint(point3D_ids[k]);
+      initial_xyz.push_back(reconstruction->Point3D(point3D_ids[k]).xyz);
+    }
+    // Without images in the configuration, the adjuster holds every camera
+    // (pose and intrinsics) constant and adjusts the points alone.
+    BundleAdjuster bundle_adjuster(options, config);
+    bundle_adjuster.Solve(reconstruction);
+    // A point of nearly parallel rays can run off along them, even behind
+    // its cameras: it keeps its place (filtering judges it).
+    for (size_t k = begin; k < end; ++k) {
+      Point3D& point3D = reconstruction->Point3D(point3D_ids[k]);
+      for (const TrackElement& track_el : point3D.track.Elements()) {
+        const Rigid3d& cam_from_world =
+            reconstruction->Image(track_el.image_id).CamFromWorld();
+        if ((cam_from_world * point3D.xyz).z() <
+            std::numeric_limits<double>::epsilon()) {
+          point3D.xyz = initial_xyz[k - begin];
+          break;
+        }
+      }
+    }
+  }
+  return point3D_ids.size();
+}
+
+}  // namespace colmap

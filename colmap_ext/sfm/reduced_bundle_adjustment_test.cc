@@ -1,0 +1,249 @@
+#include "colmap_ext/sfm/reduced_bundle_adjustment.h"
+
+#include "colmap_ext/scene/model_evaluation.h"
+#include "colmap_ext/scene/synthetic_scene.h"
+
+#include "colmap/math/math.h"
+#include "colmap/math/random.h"
+#include "colmap/scene/synthetic.h"
+
+#include <cmath>
+#include <set>
+
+#include <gtest/gtest.h>
+
+namespace colmap {
+namespace {
+
+// A generated loop of landmark clusters (long and short tracks, noisy
+// keypoints) with the reprojection errors of its true points.
+Reconstruction GroundTruth() {
+  SyntheticSceneOptions options;
+  options.num_clusters = 2;
+  options.num_images_per_cluster = 12;
+  options.num_images_per_link = 8;
+  options.num_points_per_cluster = 1500;
+  options.num_points_per_link = 600;
+  options.keypoint_noise = 0.5;
+  options.seed = 4;
+  SyntheticScene scene;
+  SynthesizeCommunityScene(options, &scene, /*database=*/nullptr);
+  scene.ground_truth.UpdatePoint3DErrors();
+  return scene.ground_truth;
+}
+
+Eigen::Vector3d RandomVector() {
+  return Eigen::Vector3d(RandomUniformReal(-1.0, 1.0),
+                         RandomUniformReal(-1.0, 1.0),
+                         RandomUniformReal(-1.0, 1.0));
+}
+
+// COLMAP's synthetic scene (every point seen by every image), noisy
+// keypoints, well conditioned: what a bundle adjustment converges to is
+// close to the truth.
+Reconstruction WellConditionedGroundTruth() {
+  SetPRNGSeed(3);
+  SyntheticDatasetOptions options;
+  options.num_cameras = 1;
+  options.num_images = 15;
+  options.num_points3D = 2000;
+  options.point2D_stddev = 0.5;
+  Reconstruction ground_truth;
+  SynthesizeDataset(options, &ground_truth);
+  ground_truth.UpdatePoint3DErrors();
+  return ground_truth;
+}
+
+// The ground truth with every camera and point moved by a fraction of the
+// extent of the camera centres.
+Reconstruction Perturbed(const Reconstruction& ground_truth) {
+  SetPRNGSeed(7);
+  Reconstruction model = ground_truth;
+  const double extent = EvaluateModel(ground_truth, ground_truth).extent;
+  for (const image_t image_id : model.RegImageIds()) {
+    Rigid3d& cam_from_world = model.Image(image_id).CamFromWorld();
+    cam_from_world.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(
+                                  DegToRad(RandomUniformReal(-1.0, 1.0)),
+                                  RandomVector().normalized())) *
+                              cam_from_world.rotation;
+    cam_from_world.translation += 0.01 * extent * RandomVector();
+  }
+  for (const point3D_t point3D_id : model.Point3DIds()) {
+    model.Point3D(point3D_id).xyz += 0.01 * extent * RandomVector();
+  }
+  model.UpdatePoint3DErrors();
+  return model;
+}
+
+BundleAdjustmentOptions AdjustmentOptions() {
+  BundleAdjustmentOptions options;
+  options.print_summary = false;
+  options.solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
+  options.solver_options.function_tolerance = 1e-8;
+  return options;
+}
+
+TEST(SelectBundleTracks, CoversEveryImageWithFewerTracks) {
+  const Reconstruction ground_truth = GroundTruth();
+  TrackSelectionOptions options;
+  options.grid_size = 6;
+  options.min_tracks_per_image = 60;
+  const std::unordered_set<point3D_t> selected =
+      SelectBundleTracks(options, ground_truth);
+  EXPECT_LT(selected.size(), ground_truth.NumPoints3D() / 2);
+  for (const image_t image_id : ground_truth.RegImageIds()) {
+    const Image& image = ground_truth.Image(image_id);
+    const Camera& camera = ground_truth.Camera(image.CameraId());
+    std::set<int> observed_cells;
+    std::set<int> selected_cells;
+    int num_observed = 0;
+    int num_selected = 0;
+    for (const Point2D& point2D : image.Points2D()) {
+      if (!point2D.HasPoint3D()) continue;
+      const int cell =
+          std::min(5, static_cast<int>(6 * point2D.xy.y() / camera.height)) *
+              6 +
+          std::min(5, static_cast<int>(6 * point2D.xy.x() / camera.width));
+      ++num_observed;
+      observed_cells.insert(cell);
+      if (selected.count(point2D.point3D_id)) {
+        ++num_selected;
+        selected_cells.insert(cell);
+      }
+    }
+    // Every cell the image has points in holds a selected one, and every
+    // image keeps its minimum.
+    EXPECT_EQ(selected_cells, observed_cells) << image.Name();
+    EXPECT_GE(num_selected, std::min(num_observed, 60)) << image.Name();
+  }
+}
+
+TEST(SelectBundleTracks, PrefersLongThenAccurateTracks) {
+  Reconstruction model = GroundTruth();
+  TrackSelectionOptions options;
+  options.grid_size = 1;  // One cell: one track per image at most ...
+  options.min_tracks_per_image = 0;  // ... and nothing added.
+  options.long_track_length = 1000;
+  std::unordered_set<point3D_t> selected = SelectBundleTracks(options, model);
+  EXPECT_LE(selected.size(), model.NumRegImages());
+  // The first image chooses first: the longest track it observes.
+  const image_t image_id = model.RegImageIds()[0];
+  size_t longest = 0;
+  size_t longest_selected = 0;
+  for (const Point2D& point2D : model.Image(image_id).Points2D()) {
+    if (!point2D.HasPoint3D()) continue;
+    const size_t length = model.Point3D(point2D.point3D_id).track.Length();
+    longest = std::max(longest, length);
+    if (selected.count(point2D.point3D_id)) {
+      longest_selected = std::max(longest_selected, length);
+    }
+  }
+  EXPECT_EQ(longest_selected, longest);
+  // Every later image chooses only if no track chosen before covers it.
+  for (const image_t other_image_id : model.RegImageIds()) {
+    int num_observed_selected = 0;
+    for (const Point2D& point2D : model.Image(other_image_id).Points2D()) {
+      num_observed_selected +=
+          point2D.HasPoint3D() && selected.count(point2D.point3D_id);
+    }
+    EXPECT_GE(num_observed_selected, 1);
+  }
+
+  // Among tracks at least `long_track_length` long, the accurate one wins.
+  options.long_track_length = 2;
+  point3D_t accurate = kInvalidPoint3DId;
+  for (const Point2D& point2D : model.Image(image_id).Points2D()) {
+    if (point2D.HasPoint3D()) {
+      accurate = point2D.point3D_id;
+    }
+  }
+  ASSERT_NE(accurate, kInvalidPoint3DId);
+  for (const point3D_t point3D_id : model.Point3DIds()) {
+    model.Point3D(point3D_id).error = point3D_id == accurate ? 0.0 : 1.0;
+  }
+  selected = SelectBundleTracks(options, model);
+  EXPECT_EQ(selected.count(accurate), 1);
+}
+
+TEST(AdjustCamerasOnTracks, CamerasAsAccurateAsTheFullAdjustment) {
+  const Reconstruction ground_truth = WellConditionedGroundTruth();
+  const BundleAdjustmentOptions ba_options = AdjustmentOptions();
+
+  Reconstruction full = Perturbed(ground_truth);
+  const double perturbed_error =
+      EvaluateModel(full, ground_truth).median_position_error;
+  {
+    BundleAdjustmentConfig config;
+    for (const image_t image_id : full.RegImageIds()) {
+      config.AddImage(image_id);
+    }
+    config.SetConstantCamPose(full.RegImageIds()[0]);
+    config.SetConstantCamPositions(full.RegImageIds()[1], {0});
+    BundleAdjuster adjuster(ba_options, config);
+    ASSERT_TRUE(adjuster.Solve(&full));
+  }
+  const ModelEvaluation full_evaluation = EvaluateModel(full, ground_truth);
+
+  Reconstruction reduced = Perturbed(ground_truth);
+  const TrackSelectionOptions selection;
+  const std::unordered_set<point3D_t> selected =
+      SelectBundleTracks(selection, reduced);
+  ASSERT_LT(selected.size(), reduced.NumPoints3D() / 2);
+  ASSERT_TRUE(AdjustCamerasOnTracks(
+      ba_options, ba_options.solver_options, selected, &reduced));
+  EXPECT_EQ(RefinePointsWithFixedCameras(ba_options,
+                                         selected,
+                                         /*max_points_per_problem=*/500,
+                                         &reduced),
+            reduced.NumPoints3D() - selected.size());
+  const ModelEvaluation reduced_evaluation =
+      EvaluateModel(reduced, ground_truth);
+  LOG(INFO) << "Median position error: perturbed " << perturbed_error
+            << ", full adjustment " << full_evaluation.median_position_error
+            << ", on " << selected.size() << " of " << reduced.NumPoints3D()
+            << " tracks " << reduced_evaluation.median_position_error;
+  EXPECT_LT(full_evaluation.median_position_error, 0.1 * perturbed_error);
+  // The perturbation is undone; the cameras are less precise than after the
+  // full adjustment, as the noise averages over fewer observations (by
+  // about the square root of their ratio).
+  EXPECT_LT(reduced_evaluation.median_position_error, 0.1 * perturbed_error);
+  const double noise_ratio = std::sqrt(
+      static_cast<double>(ground_truth.NumPoints3D()) / selected.size());
+  EXPECT_LT(reduced_evaluation.median_position_error,
+            1.5 * noise_ratio * full_evaluation.median_position_error);
+  EXPECT_LT(reduced_evaluation.median_rotation_error_deg,
+            1.5 * noise_ratio * full_evaluation.median_rotation_error_deg);
+  // Every point, selected or not, fits the adjusted cameras about as well
+  // as after the full adjustment.
+  reduced.UpdatePoint3DErrors();
+  full.UpdatePoint3DErrors();
+  EXPECT_LT(reduced.ComputeMeanReprojectionError(),
+            1.1 * full.ComputeMeanReprojectionError());
+}
+
+TEST(RefinePointsWithFixedCameras, LeavesCamerasAndExcludedPointsAlone) {
+  const Reconstruction ground_truth = WellConditionedGroundTruth();
+  Reconstruction model = Perturbed(ground_truth);
+  const Reconstruction before = model;
+  const point3D_t excluded = *model.Point3DIds().begin();
+  RefinePointsWithFixedCameras(AdjustmentOptions(),
+                               {excluded},
+                               /*max_points_per_problem=*/1000,
+                               &model);
+  for (const image_t image_id : model.RegImageIds()) {
+    EXPECT_EQ(model.Image(image_id).CamFromWorld().translation,
+              before.Image(image_id).CamFromWorld().translation);
+  }
+  for (const auto& camera : model.Cameras()) {
+    EXPECT_EQ(camera.second.params, before.Camera(camera.first).params);
+  }
+  EXPECT_EQ(model.Point3D(excluded).xyz, before.Point3D(excluded).xyz);
+  model.UpdatePoint3DErrors();
+  // Points moved back towards where the perturbed cameras see them.
+  const Reconstruction& perturbed = before;
+  EXPECT_LT(model.ComputeMeanReprojectionError(),
+            0.8 * perturbed.ComputeMeanReprojectionError());
+}
+
+}  // namespace
+}  // namespace colmap
