@@ -85,6 +85,13 @@ bool CheckCommandOptions(const CommunityMapperCommand& command) {
         "positive.",
         options.refinement.initial_trust_region_radius));
   }
+  if (!(options.refinement.max_selected_observation_fraction >= 0 &&
+        options.refinement.max_selected_observation_fraction <= 1)) {
+    fail(StringPrintf(
+        "--CommunityMapper.ba_max_selected_fraction is %g: it must be "
+        "between 0 and 1.",
+        options.refinement.max_selected_observation_fraction));
+  }
   if (options.refinement.track_selection.grid_size < 1 ||
       options.refinement.track_selection.min_tracks_per_image < 0) {
     fail(StringPrintf(
@@ -612,6 +619,10 @@ void ParseCommand(int argc,
       "adjust the merged model's cameras on a selected subset of its tracks "
       "(spread over every image), then the other points with the cameras "
       "fixed; 0: every adjustment over all observations");
+  add("ba_max_selected_fraction",
+      &mapper_options.refinement.max_selected_observation_fraction,
+      "reduced adjustment: used only where the selected tracks hold at most "
+      "this fraction of the observations (otherwise over all of them)");
   add("ba_track_grid_size",
       &mapper_options.refinement.track_selection.grid_size,
       "reduced adjustment: cells per side of the image grid over which the "

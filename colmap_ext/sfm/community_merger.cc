@@ -207,7 +207,8 @@ ceres::Solver::Options RefinementSolverOptions(
 // Global bundle adjustment of all registered images, the gauge fixed as
 // COLMAP's mapper fixes it (first image, one coordinate of the second),
 // over all observations or, with `refinement.reduced_adjustment`, on the
-// selected tracks followed by the other points with the cameras fixed.
+// selected tracks followed by the other points with the cameras fixed
+// (where the selected tracks hold few enough of the observations).
 bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
                         const MergedModelRefinementOptions& refinement,
                         ObservationManager* observation_manager,
@@ -219,10 +220,22 @@ bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
   observation_manager->FilterObservationsWithNegativeDepth();
   const ceres::Solver::Options solver_options =
       RefinementSolverOptions(options, refinement, reg_image_ids.size());
+  std::unordered_set<point3D_t> selected;
   if (refinement.reduced_adjustment) {
     reconstruction->UpdatePoint3DErrors();
-    const std::unordered_set<point3D_t> selected =
-        SelectBundleTracks(refinement.track_selection, *reconstruction);
+    selected = SelectBundleTracks(refinement.track_selection, *reconstruction);
+    size_t num_selected_observations = 0;
+    for (const point3D_t point3D_id : selected) {
+      num_selected_observations +=
+          reconstruction->Point3D(point3D_id).track.Length();
+    }
+    if (num_selected_observations >
+        refinement.max_selected_observation_fraction *
+            reconstruction->ComputeNumObservations()) {
+      selected.clear();  // Hardly smaller: adjust over all observations.
+    }
+  }
+  if (!selected.empty()) {
     const bool usable = AdjustCamerasOnTracks(
         options, solver_options, selected, reconstruction);
     Timer timer;
@@ -342,6 +355,8 @@ bool MergedModelRefinementOptions::Check() const {
   CHECK_OPTION_GT(alignment_max_points_per_image, 0);
   CHECK_OPTION(track_selection.Check());
   CHECK_OPTION_GT(max_points_per_problem, 0);
+  CHECK_OPTION_GE(max_selected_observation_fraction, 0);
+  CHECK_OPTION_LE(max_selected_observation_fraction, 1);
   CHECK_OPTION_GE(function_tolerance, 0);
   CHECK_OPTION_GT(initial_trust_region_radius, 0);
   return true;

@@ -105,6 +105,13 @@ struct MergedModelRefinementOptions {
   // error 0.0039 / 0.0123 against 0.0040 / 0.0120. Without it, every
   // adjustment is over all observations, with the correspondences held.
   bool reduced_adjustment = true;
+  // ... where the selected tracks hold at most this fraction of the
+  // observations; where they hold more (a sparse scene: few points per
+  // grid cell), the round is over all observations, as it costs little
+  // more. A generated courtyard loop of 420 images selects 81% of its
+  // observations, and adjusting on them gave a median camera error of
+  // 0.0236 against 0.0190 over all; the dense scene above selects 40%.
+  double max_selected_observation_fraction = 0.5;
   TrackSelectionOptions track_selection;
   int max_points_per_problem = 50000;
 
