@@ -19,11 +19,12 @@
 //
 // and every other point is then refined on its own with the cameras fixed,
 //
-//   min over X_j of sum over images i observing j: |pi(P_i, K_i, X_j) -
-//   x_ij|^2,
+//   min over X_j of sum over i observing j: |pi(P_i, K_i, X_j) - x_ij|^2,
 //
 // which is independent per point (3 unknowns each) and runs in chunks of
-// bounded size, so that no problem over all observations is ever built.
+// bounded size. The cameras are noisier than after an adjustment over all
+// observations (the noise averages over fewer of them): the merge ends
+// with one such adjustment (community_merger.h).
 
 #pragma once
 
