@@ -575,6 +575,19 @@ void ParseCommand(int argc,
       &mapper_options.similarity_averaging.max_relative_translation_residual,
       "drop a pairwise similarity whose translation residual after averaging, "
       "relative to its points' spread, exceeds this");
+  add("max_shared_image_rotation_deg",
+      &mapper_options.pairwise_similarity.max_shared_image_rotation_deg,
+      "an image both communities registered is placed alike by their models "
+      "under a similarity if within this rotation (degrees) ...");
+  add("max_shared_image_relative_distance",
+      &mapper_options.pairwise_similarity.max_shared_image_relative_distance,
+      "... and this distance, relative to the spread of the co-visible "
+      "points");
+  add("min_num_shared_images_in_doubt",
+      &mapper_options.similarity_averaging.min_num_shared_images_in_doubt,
+      "a similarity of a community in doubt that lies on no cycle of kept "
+      "similarities is dropped unless at least this many shared images, all "
+      "placed alike, confirm it");
   add("min_registered_fraction",
       &mapper_options.judgement.min_registered_fraction,
       "a community whose model registered fewer of its images than this "
