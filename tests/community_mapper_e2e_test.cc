@@ -44,11 +44,13 @@ Scene GenerateScene(const std::string& path, const std::string& arguments) {
 int RunMapper(const std::string& command,
               const Scene& scene,
               const std::string& output_path,
-              std::string* log) {
+              std::string* log,
+              const std::string& extra_flags = "") {
   return RunCommand(std::string(COLMAP_BINARY) + " " + command +
                         " --database_path " + ShellQuote(scene.DatabasePath()) +
                         " --image_path " + ShellQuote(scene.ImagePath()) +
-                        " --output_path " + ShellQuote(output_path),
+                        " --output_path " + ShellQuote(output_path) + " " +
+                        extra_flags,
                     log);
 }
 
@@ -322,6 +324,51 @@ TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
       community.median_position_error,
       std::max(1.5 * mapper.median_position_error, 0.0005 * community.extent));
   EXPECT_LT(community.mean_reprojection_error, 1.0);
+}
+
+// The refinement's bundle adjustment rounds on a selected subset of the
+// tracks (forced here: the generated scenes are too sparse for the default
+// rule to choose it), the last one over all observations: one model, as
+// accurate as with every round over all observations.
+TEST(CommunityMapperReducedAdjustment, AsAccurateAsOverAllObservations) {
+  const std::string test_dir = CreateTestFolder();
+  const Scene scene = GenerateScene(
+      JoinPaths(test_dir, "scene"),
+      "--num_clusters 2 --num_images_per_cluster 30 --num_images_per_link 20 "
+      "--keypoint_noise 0.7 --seed 13");
+  std::string log;
+  const std::string full_path = JoinPaths(test_dir, "full");
+  ASSERT_EQ(RunMapper("community_mapper",
+                      scene,
+                      full_path,
+                      &log,
+                      "--CommunityMapper.reduced_adjustment 0"),
+            0)
+      << log;
+  EXPECT_EQ(log.find("Refined the other"), std::string::npos) << log;
+  const std::string reduced_path = JoinPaths(test_dir, "reduced");
+  ASSERT_EQ(RunMapper("community_mapper",
+                      scene,
+                      reduced_path,
+                      &log,
+                      "--CommunityMapper.ba_max_selected_fraction 1 "
+                      "--CommunityMapper.ba_min_tracks_per_image 50"),
+            0)
+      << log;
+  // The rounds ran on the subset.
+  EXPECT_NE(log.find("Refined the other"), std::string::npos) << log;
+
+  EXPECT_FALSE(ExistsDir(JoinPaths(reduced_path, "1")));
+  const ModelEvaluation full =
+      Evaluate(JoinPaths(full_path, "0"), scene.GroundTruthPath());
+  const ModelEvaluation reduced =
+      Evaluate(JoinPaths(reduced_path, "0"), scene.GroundTruthPath());
+  EXPECT_EQ(reduced.num_registered_images, full.num_registered_images);
+  ASSERT_TRUE(full.aligned);
+  ASSERT_TRUE(reduced.aligned);
+  EXPECT_LT(reduced.median_position_error, 1.2 * full.median_position_error);
+  EXPECT_LT(reduced.p90_position_error, 1.2 * full.p90_position_error);
+  EXPECT_LT(reduced.mean_reprojection_error, 1.0);
 }
 
 // Two landmarks that no camera links: two view-graph components, so two
