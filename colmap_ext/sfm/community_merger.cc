@@ -173,12 +173,12 @@ std::shared_ptr<Reconstruction> RestrictToImages(
 
 namespace {
 
-// Ceres options of the refinement's adjustments of `num_images` images.
-// With `sparse_solver`, Ceres' sparse Schur solver (SuiteSparse) is used at
-// any size; otherwise as COLMAP chooses (dense Schur up to 50 images, sparse
-// up to 1000, iterative Schur above). The solver starts from the options'
-// trust region radius and stops once an iteration lowers the cost by less
-// than their relative function tolerance.
+// Ceres options of the refinement's adjustments of `num_images` images: the
+// linear solver as COLMAP's BundleAdjuster chooses it (dense Schur up to 50
+// images, sparse up to 1000, iterative Schur above), or with
+// `sparse_solver` Ceres' sparse Schur solver (SuiteSparse) at any size. The
+// solver starts from the options' trust region radius and stops once an
+// iteration lowers the cost by less than their relative function tolerance.
 ceres::Solver::Options RefinementSolverOptions(
     const BundleAdjustmentOptions& options,
     const MergedModelRefinementOptions& refinement,
@@ -186,15 +186,16 @@ ceres::Solver::Options RefinementSolverOptions(
   ceres::Solver::Options solver_options = options.solver_options;
   const bool has_sparse =
       solver_options.sparse_linear_algebra_library_type != ceres::NO_SPARSE;
-  if (has_sparse && (refinement.sparse_solver || num_images <= 1000)) {
-    solver_options.linear_solver_type =
-        num_images <= 50 && !refinement.sparse_solver ? ceres::DENSE_SCHUR
-                                                      : ceres::SPARSE_SCHUR;
-  } else if (num_images <= 50) {
+  if (num_images <= 50) {
     solver_options.linear_solver_type = ceres::DENSE_SCHUR;
+  } else if (num_images <= 1000 && has_sparse) {
+    solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
   } else {
     solver_options.linear_solver_type = ceres::ITERATIVE_SCHUR;
     solver_options.preconditioner_type = ceres::SCHUR_JACOBI;
+  }
+  if (refinement.sparse_solver && has_sparse) {
+    solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
   }
   solver_options.num_threads =
       GetEffectiveNumThreads(solver_options.num_threads);
