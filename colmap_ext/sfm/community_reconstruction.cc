@@ -1,5 +1,7 @@
 #include "colmap_ext/sfm/community_reconstruction.h"
 
+#include "colmap_ext/util/process_memory.h"
+
 #include "colmap/math/random.h"
 #include "colmap/scene/reconstruction_manager.h"
 #include "colmap/util/logging.h"
@@ -44,6 +46,8 @@ CommunityReconstruction ReconstructCommunity(
                  << attempt << "s";
     std::this_thread::sleep_for(std::chrono::seconds(attempt));
   }
+  // The correspondence graph's construction freed a vector per keypoint.
+  ReleaseFreedMemory();
 
   // As IncrementalMapperController::Run: where no initial pair is found,
   // relax the constraints.
