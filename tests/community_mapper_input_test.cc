@@ -187,6 +187,9 @@ TEST_F(CommunityMapperInputTest, InvalidOptionValues) {
   ExpectRefusal(good_database_,
                 "--CommunityMapper.ba_initial_trust_region_radius 0",
                 "ba_initial_trust_region_radius is 0: it must be positive");
+  ExpectRefusal(good_database_,
+                "--CommunityMapper.max_refinement_change -0.5",
+                "max_refinement_change is -0.5: it must be 0 or more");
 }
 
 TEST_F(CommunityMapperInputTest, OutputPathIsAFile) {

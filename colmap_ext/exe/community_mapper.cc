@@ -74,6 +74,13 @@ bool CheckCommandOptions(const CommunityMapperCommand& command) {
         "--Mapper.ba_global_points_ratio.",
         options.community_ba_global_ratio));
   }
+  if (!(options.refinement.max_refinement_change == -1 ||
+        options.refinement.max_refinement_change >= 0)) {
+    fail(StringPrintf(
+        "--CommunityMapper.max_refinement_change is %g: it must be 0 or "
+        "more, or -1 for --Mapper.ba_global_max_refinement_change.",
+        options.refinement.max_refinement_change));
+  }
   if (options.refinement.function_tolerance < 0) {
     fail(StringPrintf(
         "--CommunityMapper.ba_function_tolerance is %g: it must be 0 or more.",
@@ -619,6 +626,11 @@ void ParseCommand(int argc,
       "points per image (longest tracks first) in the merged model's first "
       "bundle adjustment, which aligns the communities' cameras before all "
       "points are triangulated anew");
+  add("max_refinement_change",
+      &mapper_options.refinement.max_refinement_change,
+      "the merged model's rounds of bundle adjustment, filtering and track "
+      "completion stop once fewer than this fraction of the observations "
+      "change; -1: --Mapper.ba_global_max_refinement_change");
   add("ba_function_tolerance",
       &mapper_options.refinement.function_tolerance,
       "the merged model's bundle adjustments stop once an iteration lowers "

@@ -354,6 +354,7 @@ void AlignCameras(const MergedModelRefinementOptions& options,
 
 bool MergedModelRefinementOptions::Check() const {
   CHECK_OPTION_GT(alignment_max_points_per_image, 0);
+  CHECK_OPTION(max_refinement_change == -1 || max_refinement_change >= 0);
   CHECK_OPTION(track_selection.Check());
   CHECK_OPTION_GT(max_points_per_problem, 0);
   CHECK_OPTION_GE(max_selected_observation_fraction, 0);
@@ -480,7 +481,9 @@ MergedModelRefinementSummary RefineMergedModel(
                               i + 1,
                               static_cast<int>(num_changed),
                               changed);
-    if (changed < mapper_options.ba_global_max_refinement_change) {
+    if (changed < (options.max_refinement_change >= 0
+                       ? options.max_refinement_change
+                       : mapper_options.ba_global_max_refinement_change)) {
       break;
     }
   }
