@@ -188,6 +188,9 @@ TEST_F(CommunityMapperInputTest, InvalidOptionValues) {
                 "--CommunityMapper.ba_initial_trust_region_radius 0",
                 "ba_initial_trust_region_radius is 0: it must be positive");
   ExpectRefusal(good_database_,
+                "--CommunityMapper.triangulation_filter_factor -1",
+                "triangulation_filter_factor is -1: it must be 0 or more");
+  ExpectRefusal(good_database_,
                 "--CommunityMapper.max_refinement_change -0.5",
                 "max_refinement_change is -0.5: it must be 0 or more");
 }

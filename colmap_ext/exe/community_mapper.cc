@@ -74,6 +74,12 @@ bool CheckCommandOptions(const CommunityMapperCommand& command) {
         "--Mapper.ba_global_points_ratio.",
         options.community_ba_global_ratio));
   }
+  if (!(options.refinement.triangulation_filter_factor >= 0)) {
+    fail(StringPrintf(
+        "--CommunityMapper.triangulation_filter_factor is %g: it must be 0 "
+        "or more.",
+        options.refinement.triangulation_filter_factor));
+  }
   if (!(options.refinement.max_refinement_change == -1 ||
         options.refinement.max_refinement_change >= 0)) {
     fail(StringPrintf(
@@ -626,6 +632,11 @@ void ParseCommand(int argc,
       "points per image (longest tracks first) in the merged model's first "
       "bundle adjustment, which aligns the communities' cameras before all "
       "points are triangulated anew");
+  add("triangulation_filter_factor",
+      &mapper_options.refinement.triangulation_filter_factor,
+      "the merged model's points triangulated anew are filtered at this "
+      "multiple of --Mapper.filter_max_reproj_error before its first "
+      "bundle adjustment; 0: not before it");
   add("max_refinement_change",
       &mapper_options.refinement.max_refinement_change,
       "the merged model's rounds of bundle adjustment, filtering and track "

@@ -354,6 +354,7 @@ void AlignCameras(const MergedModelRefinementOptions& options,
 
 bool MergedModelRefinementOptions::Check() const {
   CHECK_OPTION_GT(alignment_max_points_per_image, 0);
+  CHECK_OPTION_GE(triangulation_filter_factor, 0);
   CHECK_OPTION(max_refinement_change == -1 || max_refinement_change >= 0);
   CHECK_OPTION(track_selection.Check());
   CHECK_OPTION_GT(max_points_per_problem, 0);
@@ -448,7 +449,13 @@ MergedModelRefinementSummary RefineMergedModel(
     mapper->TriangulateImage(triangulation, image_id);
   }
   const size_t num_completed = mapper->CompleteAndMergeTracks(triangulation);
-  const size_t num_filtered = mapper->FilterPoints(incremental);
+  size_t num_filtered = 0;
+  if (options.triangulation_filter_factor > 0) {
+    IncrementalMapper::Options filter_options = incremental;
+    filter_options.filter_max_reproj_error *=
+        options.triangulation_filter_factor;
+    num_filtered = mapper->FilterPoints(filter_options);
+  }
   LOG(INFO) << StringPrintf(
       "Triangulated %d points anew, completed and merged %d observations, "
       "filtered %d (%.1fs)",
