@@ -371,6 +371,58 @@ TEST(CommunityMapperReducedAdjustment, AsAccurateAsOverAllObservations) {
   EXPECT_LT(reduced.mean_reprojection_error, 1.0);
 }
 
+// The merged model's bundle adjustments run with the correspondences
+// released and loaded again after each (the default): the same model as
+// with them held through the refinement, as the incremental mapper does.
+TEST(CommunityMapperReloadCorrespondences, SameModelAsHoldingThem) {
+  const std::string test_dir = CreateTestFolder();
+  const Scene scene = GenerateScene(
+      JoinPaths(test_dir, "scene"),
+      "--num_clusters 2 --num_images_per_cluster 30 --num_images_per_link 20 "
+      "--keypoint_noise 0.7 --seed 13");
+  std::string log;
+  const std::string held_path = JoinPaths(test_dir, "held");
+  ASSERT_EQ(RunMapper("community_mapper",
+                      scene,
+                      held_path,
+                      &log,
+                      "--CommunityMapper.reload_correspondences 0"),
+            0)
+      << log;
+  // Loaded once, for the triangulation and the rounds together.
+  const auto count = [](const std::string& text, const std::string& what) {
+    int n = 0;
+    for (size_t pos = text.find(what); pos != std::string::npos;
+         pos = text.find(what, pos + 1)) {
+      ++n;
+    }
+    return n;
+  };
+  EXPECT_EQ(count(log, "Memory after loading the correspondences"), 1) << log;
+  const std::string reloaded_path = JoinPaths(test_dir, "reloaded");
+  ASSERT_EQ(RunMapper("community_mapper", scene, reloaded_path, &log), 0)
+      << log;
+  // Loaded again after every round's adjustment.
+  EXPECT_EQ(count(log, "Memory after loading the correspondences"),
+            1 + count(log, "] Refinement "))
+      << log;
+
+  const ModelEvaluation held =
+      Evaluate(JoinPaths(held_path, "0"), scene.GroundTruthPath());
+  const ModelEvaluation reloaded =
+      Evaluate(JoinPaths(reloaded_path, "0"), scene.GroundTruthPath());
+  EXPECT_FALSE(ExistsDir(JoinPaths(reloaded_path, "1")));
+  EXPECT_EQ(reloaded.num_registered_images, held.num_registered_images);
+  ASSERT_TRUE(held.aligned);
+  ASSERT_TRUE(reloaded.aligned);
+  EXPECT_NEAR(reloaded.median_position_error,
+              held.median_position_error,
+              0.05 * held.median_position_error);
+  EXPECT_NEAR(reloaded.mean_reprojection_error,
+              held.mean_reprojection_error,
+              0.01);
+}
+
 // Two landmarks that no camera links: two view-graph components, so two
 // models, largest first, each image in exactly one.
 TEST(CommunityMapperComponents, EachComponentIsItsOwnModel) {

@@ -196,37 +196,41 @@ std::shared_ptr<Reconstruction> MergePart(
       static_cast<int>(num_merged_points));
   LogMemory("joining the models");
 
-  // The correspondences, once the communities' models are released.
-  std::shared_ptr<DatabaseCache> database_cache;
-  {
-    const Database database(options.database_path);
-    database_cache = DatabaseCache::Create(
-        database,
-        static_cast<size_t>(options.MinNumMatches()),
-        options.incremental_options.ignore_watermarks,
-        part_image_names,
-        [&false_pairs](const image_t image_id1, const image_t image_id2) {
-          return false_pairs.count(
-                     Database::ImagePairToPairId(image_id1, image_id2)) == 0;
-        });
-  }
-  // Building the correspondence graph grows a vector per keypoint and then
-  // flattens them; the freed vectors would stay resident through the
-  // refinement (see ReleaseFreedMemory).
-  ReleaseFreedMemory();
-  for (const image_t image_id : merged->RegImageIds()) {
-    THROW_CHECK(database_cache->ExistsImage(image_id))
-        << "image " << merged->Image(image_id).Name()
-        << " has no correspondences";
-  }
-  LogMemory("loading the correspondences");
+  // The correspondences, once the communities' models are released and
+  // the joined cameras aligned (RefineMergedModel).
+  const auto load_correspondences = [&]() {
+    std::shared_ptr<DatabaseCache> database_cache;
+    {
+      const Database database(options.database_path);
+      database_cache = DatabaseCache::Create(
+          database,
+          static_cast<size_t>(options.MinNumMatches()),
+          options.incremental_options.ignore_watermarks,
+          part_image_names,
+          [&false_pairs](const image_t image_id1, const image_t image_id2) {
+            return false_pairs.count(
+                       Database::ImagePairToPairId(image_id1, image_id2)) == 0;
+          });
+    }
+    // Building the correspondence graph grows a vector per keypoint and
+    // then flattens them; the freed vectors would stay resident through the
+    // refinement (see ReleaseFreedMemory).
+    ReleaseFreedMemory();
+    for (const image_t image_id : merged->RegImageIds()) {
+      THROW_CHECK(database_cache->ExistsImage(image_id))
+          << "image " << merged->Image(image_id).Name()
+          << " has no correspondences";
+    }
+    LogMemory("loading the correspondences");
+    return std::shared_ptr<const DatabaseCache>(std::move(database_cache));
+  };
 
   Timer timer;
   timer.Start();
   const MergedModelRefinementSummary refinement =
       RefineMergedModel(options.refinement,
                         options.incremental_options,
-                        std::move(database_cache),
+                        load_correspondences,
                         community_of_image,
                         merged);
   *refinement_seconds += timer.ElapsedSeconds();

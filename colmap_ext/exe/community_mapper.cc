@@ -642,6 +642,11 @@ void ParseCommand(int argc,
       "the merged model's rounds of bundle adjustment, filtering and track "
       "completion stop once fewer than this fraction of the observations "
       "change; -1: --Mapper.ba_global_max_refinement_change");
+  add("reload_correspondences",
+      &mapper_options.refinement.reload_correspondences,
+      "the merged model's bundle adjustments run with the correspondences "
+      "released, which are loaded again after each (less memory, one more "
+      "database read per round)");
   add("ba_function_tolerance",
       &mapper_options.refinement.function_tolerance,
       "the merged model's bundle adjustments stop once an iteration lowers "

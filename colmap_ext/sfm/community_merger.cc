@@ -11,6 +11,7 @@
 #include "colmap/util/timer.h"
 
 #include <algorithm>
+#include <functional>
 #include <memory>
 #include <unordered_set>
 
@@ -368,7 +369,8 @@ bool MergedModelRefinementOptions::Check() const {
 MergedModelRefinementSummary RefineMergedModel(
     const MergedModelRefinementOptions& options,
     const IncrementalMapperOptions& mapper_options,
-    std::shared_ptr<const DatabaseCache> database_cache,
+    const std::function<std::shared_ptr<const DatabaseCache>()>&
+        load_correspondences,
     const std::unordered_map<image_t, int>& community_of_image,
     std::shared_ptr<Reconstruction> reconstruction) {
   THROW_CHECK(options.Check());
@@ -383,10 +385,31 @@ MergedModelRefinementSummary RefineMergedModel(
       mapper_options.Triangulation();
   const BundleAdjustmentOptions ba_options =
       mapper_options.GlobalBundleAdjustment();
-
-  auto mapper = std::make_unique<IncrementalMapper>(std::move(database_cache));
-  mapper->BeginReconstruction(reconstruction);
   Timer timer;
+
+  // 1. Alignment: the joined communities are each right, but where they
+  // meet they are only as close as the averaged similarities put them. A
+  // bundle adjustment of all cameras on a reduced set of the joined points
+  // (robust loss, if asked), those merged across the borders among them,
+  // pulls them together. It runs before the correspondences are loaded, so
+  // that its problem and the correspondence graph are never held at once.
+  timer.Restart();
+  {
+    ObservationManager observation_manager(*reconstruction);
+    AlignCameras(options,
+                 options.robust_first_adjustment ? RobustOptions(ba_options)
+                                                 : ba_options,
+                 community_of_image,
+                 &observation_manager,
+                 reconstruction.get());
+  }
+  ReleaseFreedMemory();
+  LOG(INFO) << StringPrintf("Aligned the cameras (%.1fs; %s)",
+                            timer.ElapsedSeconds(),
+                            ProcessMemoryToString(ReadProcessMemory()).c_str());
+
+  auto mapper = std::make_unique<IncrementalMapper>(load_correspondences());
+  mapper->BeginReconstruction(reconstruction);
 
   if (options.register_remaining_images) {
     timer.Restart();
@@ -410,25 +433,6 @@ MergedModelRefinementSummary RefineMergedModel(
         summary.num_newly_registered_images,
         timer.ElapsedSeconds());
   }
-
-  // 1. Alignment: the joined communities are each right, but where they
-  // meet they are only as close as the averaged similarities put them. Their
-  // tracks are completed and merged over the correspondence graph, so that
-  // they cross the borders, and a bundle adjustment of all cameras on a
-  // reduced set of points (robust loss, if asked) pulls them together.
-  timer.Restart();
-  const size_t num_joined = mapper->CompleteAndMergeTracks(triangulation);
-  AlignCameras(
-      options,
-      options.robust_first_adjustment ? RobustOptions(ba_options) : ba_options,
-      community_of_image,
-      &mapper->ObservationManager(),
-      reconstruction.get());
-  LOG(INFO) << StringPrintf(
-      "Aligned the cameras on tracks completed and merged by %d observations "
-      "(%.1fs)",
-      static_cast<int>(num_joined),
-      timer.ElapsedSeconds());
 
   // 2. With the cameras in place, all points are triangulated anew over the
   // whole correspondence graph, as the incremental mapper builds its tracks
@@ -458,49 +462,75 @@ MergedModelRefinementSummary RefineMergedModel(
   }
   LOG(INFO) << StringPrintf(
       "Triangulated %d points anew, completed and merged %d observations, "
-      "filtered %d (%.1fs)",
+      "filtered %d (%.1fs; %s)",
       static_cast<int>(reconstruction->NumPoints3D()),
       static_cast<int>(num_completed),
       static_cast<int>(num_filtered),
-      timer.ElapsedSeconds());
+      timer.ElapsedSeconds(),
+      ProcessMemoryToString(ReadProcessMemory()).c_str());
 
   // 3. As the incremental mapper's global refinement: least squares bundle
   // adjustment alternating with filtering and track completion until few
-  // observations change.
+  // observations change. With `reload_correspondences`, every adjustment
+  // runs with the correspondences released and they are loaded again after
+  // it, so that its problem and the correspondence graph are never held at
+  // once.
+  std::unique_ptr<ObservationManager> observation_manager;
+  const auto release_correspondences = [&]() {
+    mapper->EndReconstruction(/*discard=*/false);
+    mapper.reset();
+    ReleaseFreedMemory();
+    observation_manager = std::make_unique<ObservationManager>(*reconstruction);
+  };
+  const double max_change = options.max_refinement_change >= 0
+                                ? options.max_refinement_change
+                                : mapper_options.ba_global_max_refinement_change;
   for (int i = 0; i < std::max(1, mapper_options.ba_global_max_refinements);
        ++i) {
+    if (options.reload_correspondences) {
+      release_correspondences();
+    }
     const size_t num_observations = reconstruction->ComputeNumObservations();
     AdjustGlobalBundle(ba_options,
                        options,
-                       &mapper->ObservationManager(),
+                       mapper ? &mapper->ObservationManager()
+                              : observation_manager.get(),
                        reconstruction.get());
     reconstruction->Normalize();
+    if (!mapper) {
+      observation_manager.reset();
+      ReleaseFreedMemory();
+      mapper = std::make_unique<IncrementalMapper>(load_correspondences());
+      mapper->BeginReconstruction(reconstruction);
+    }
     // Pairs the first triangulation left under-reconstructed (a border
-    // still a little apart) are triangulated again with the adjusted poses.
-    const size_t num_changed = mapper->CompleteAndMergeTracks(triangulation) +
-                               mapper->Retriangulate(triangulation) +
-                               mapper->FilterPoints(incremental);
+    // still a little apart) are triangulated again with the adjusted poses,
+    // once (the triangulator tries a pair once: a mapper loaded anew would
+    // try them all again).
+    size_t num_changed = mapper->CompleteAndMergeTracks(triangulation);
+    if (i == 0) {
+      num_changed += mapper->Retriangulate(triangulation);
+    }
+    num_changed += mapper->FilterPoints(incremental);
     const double changed =
         num_observations == 0
             ? 0
             : static_cast<double>(num_changed) / num_observations;
-    LOG(INFO) << StringPrintf("Refinement %d: %d observations (%.5f) changed",
-                              i + 1,
-                              static_cast<int>(num_changed),
-                              changed);
-    if (changed < (options.max_refinement_change >= 0
-                       ? options.max_refinement_change
-                       : mapper_options.ba_global_max_refinement_change)) {
+    LOG(INFO) << StringPrintf(
+        "Refinement %d: %d observations (%.5f) changed (%s)",
+        i + 1,
+        static_cast<int>(num_changed),
+        changed,
+        ProcessMemoryToString(ReadProcessMemory()).c_str());
+    if (changed < max_change) {
       break;
     }
   }
   summary.num_filtered_images =
       static_cast<int>(mapper->FilterImages(incremental));
-  mapper->EndReconstruction(/*discard=*/false);
   // The correspondences are not needed any more: the last adjustment runs
   // without them in memory.
-  mapper.reset();
-  ReleaseFreedMemory();
+  release_correspondences();
 
   // The last track completion and filtering changed a few observations;
   // adjusting once more on them moves the cameras noticeably, as the
@@ -511,9 +541,10 @@ MergedModelRefinementSummary RefineMergedModel(
   // about every camera (its noise averages over all of them).
   MergedModelRefinementOptions full_options = options;
   full_options.reduced_adjustment = false;
-  ObservationManager observation_manager(*reconstruction);
-  AdjustGlobalBundle(
-      ba_options, full_options, &observation_manager, reconstruction.get());
+  AdjustGlobalBundle(ba_options,
+                     full_options,
+                     observation_manager.get(),
+                     reconstruction.get());
 
   reconstruction->UpdatePoint3DErrors();
   summary.final_mean_reprojection_error =
