@@ -326,16 +326,22 @@ TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
   EXPECT_LT(community.mean_reprojection_error, 1.0);
 }
 
+// Two landmark clusters of 30 images joined by 20: two communities joined
+// by one similarity, for the refinement's variants below.
+Scene TwoClusterScene(const std::string& test_dir) {
+  return GenerateScene(
+      JoinPaths(test_dir, "scene"),
+      "--num_clusters 2 --num_images_per_cluster 30 --num_images_per_link 20 "
+      "--keypoint_noise 0.7 --seed 13");
+}
+
 // The refinement's bundle adjustment rounds on a selected subset of the
 // tracks (forced here: the generated scenes are too sparse for the default
 // rule to choose it), the last one over all observations: one model, as
 // accurate as with every round over all observations.
 TEST(CommunityMapperReducedAdjustment, AsAccurateAsOverAllObservations) {
   const std::string test_dir = CreateTestFolder();
-  const Scene scene = GenerateScene(
-      JoinPaths(test_dir, "scene"),
-      "--num_clusters 2 --num_images_per_cluster 30 --num_images_per_link 20 "
-      "--keypoint_noise 0.7 --seed 13");
+  const Scene scene = TwoClusterScene(test_dir);
   std::string log;
   const std::string full_path = JoinPaths(test_dir, "full");
   ASSERT_EQ(RunMapper("community_mapper",
@@ -376,10 +382,7 @@ TEST(CommunityMapperReducedAdjustment, AsAccurateAsOverAllObservations) {
 // with them held through the refinement, as the incremental mapper does.
 TEST(CommunityMapperReloadCorrespondences, SameModelAsHoldingThem) {
   const std::string test_dir = CreateTestFolder();
-  const Scene scene = GenerateScene(
-      JoinPaths(test_dir, "scene"),
-      "--num_clusters 2 --num_images_per_cluster 30 --num_images_per_link 20 "
-      "--keypoint_noise 0.7 --seed 13");
+  const Scene scene = TwoClusterScene(test_dir);
   std::string log;
   const std::string held_path = JoinPaths(test_dir, "held");
   ASSERT_EQ(RunMapper("community_mapper",
