@@ -673,7 +673,7 @@ void ParseCommand(int argc,
       "reduced adjustment: selected tracks every image observes at least");
   add("sparse_solver",
       &mapper_options.refinement.sparse_solver,
-      "use the sparse direct solver in the merged model's bundle adjustment "
+      "use the sparse direct solver in the merged model's bundle adjustments "
       "at any size (COLMAP switches to the iterative one above 1000 images)");
   // Not saved to project.ini: a saved project must not replace results.
   options.AddDefaultOption("CommunityMapper.overwrite",
