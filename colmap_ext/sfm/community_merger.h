@@ -127,13 +127,16 @@ struct MergedModelRefinementOptions {
   // Use Ceres' sparse direct Schur solver at any size. Without it, the
   // solver is chosen as COLMAP's BundleAdjuster chooses it: the iterative
   // Schur solver above 1000 images, whose memory grows with the problem
-  // alone (a direct solver's factorization grows faster). Merge stage
-  // reruns on the same communities of a generated loop of 1002 images,
-  // iterative / sparse direct: peak memory 506 / 579 MB (colmap mapper:
-  // 748 MB), refinement 113 / 58 s, median / 90th-percentile camera error
-  // 0.047 / 0.077 against 0.054 / 0.080 (the iterative steps converge
-  // further before the function tolerance stops them).
-  bool sparse_solver = false;
+  // alone (a direct solver's factorization grows faster), but whose inexact
+  // steps follow the weakly constrained directions of a long open scene
+  // poorly. Merge stage reruns on the same communities, sparse direct /
+  // iterative: a generated loop of 1002 images, peak memory 579 / 506 MB
+  // (colmap mapper: 748 MB), refinement 58 / 113 s, median /
+  // 90th-percentile camera error 0.054 / 0.080 and 0.047 / 0.077; an open
+  // chain of 10 landmark clusters, 2940 images, peak 2391 / 2441 MB (both
+  // at the correspondence load), refinement 410 / 560 s, error 0.181 /
+  // 0.427 and 0.343 / 0.869 at the same final cost.
+  bool sparse_solver = true;
 
   // The bundle adjustments of step (3) adjust the cameras on a subset of
   // the tracks, selected per image over a grid (long, accurate tracks
