@@ -600,11 +600,18 @@ def main():
         table += partition_graph_section(arguments.partition_graph)
     with open(os.path.join(arguments.out, "results.md"), "w") as file:
         file.write("# community_mapper benchmark\n\n" + table + "\n")
+    plotted = False
     if rows:
-        plot(rows, scene_knobs, arguments.out)
+        try:
+            plot(rows, scene_knobs, arguments.out)
+            plotted = True
+        except ImportError as error:
+            # The figures are in results.md and results.csv all the same.
+            log(f"No plots ({error}): install python3-matplotlib "
+                "(scripts/install_deps.sh does) for them")
     print(table)
-    log(f"Results in {arguments.out}: results.md, results.csv, "
-        f"time_vs_images.png, cameras_<scene>.png")
+    log(f"Results in {arguments.out}: results.md, results.csv" +
+        (", time_vs_images.png, cameras_<scene>.png" if plotted else ""))
 
 
 if __name__ == "__main__":
