@@ -25,7 +25,7 @@ def main():
                "mean_reproj_px", "median_pos_err", "p90_pos_err",
                "median_pos_err_frac", "p90_pos_err_frac", "median_rot_err_deg",
                "time_vs_mapper", "time_vs_hierarchical", "time_vs_hier_fair",
-               "memory_vs_mapper"]
+               "memory_vs_mapper", "mean_pos_err"]
     for row in rows:
         assert row["exit"] == "0", row
         for field in numeric:
@@ -33,6 +33,15 @@ def main():
             assert math.isfinite(value) and value >= 0, (row["method"], field)
         assert float(row["wall_s"]) > 0 and float(row["peak_rss_mb"]) > 0
         assert int(row["registered"]) > 0, row
+    # Image by image against the mapper: every other method is paired with
+    # it on the images both registered.
+    assert rows[0]["closer_than_mapper"] == "", rows[0]
+    for row in rows[1:]:
+        closer, common = int(row["closer_than_mapper"]), \
+            int(row["common_images"])
+        assert 0 <= closer <= common and common > 0, row
+        assert common <= min(int(row["registered"]),
+                             int(rows[0]["registered"])), row
     community = rows[1]
     for phase in ("partition", "communities", "similarity_averaging",
                   "merge", "final_bundle_adjustment"):
@@ -40,7 +49,7 @@ def main():
     assert int(community["communities"]) >= 2
     table = open(os.path.join(out, "results.md")).read()
     for text in ("colmap mapper", "colmap community_mapper",
-                 "time / mapper", "Bar:"):
+                 "time / mapper", "closer than mapper", "Bar:"):
         assert text in table, text
     for png in ("time_vs_images.png", "cameras_quick.png"):
         path = os.path.join(out, png)
