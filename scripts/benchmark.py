@@ -44,8 +44,9 @@ by community for community_mapper). Camera errors: median, 90th percentile
 and mean, and the images on which a method's camera is closer to the ground
 truth than colmap mapper's (of those both registered). Ratios against the
 peers are computed within the same run: the machines are shared and noisy,
-so absolute seconds are only context. `--methods` runs a subset (e.g. without mapper on the
-large scene, where it takes hours); ratios to a method not run are n/a.
+so absolute seconds are only context. `--methods` runs a subset (e.g.
+without mapper on the large scene, where it takes hours); ratios to a method
+not run are n/a.
 """
 
 import argparse
@@ -186,23 +187,16 @@ def center_errors(path):
     return errors
 
 
-def paired_figures(out_dir, scene, method):
-    """Mean centre error of the method, and on how many of the images both
-    it and colmap mapper registered its camera is the closer one. A median
-    can fall between the modes of a bimodal error distribution (South
-    Building's reference has such modes): a method a hair's breadth
-    different then moves the median by several percent. The paired count
-    says which model is closer image by image."""
-    def path(name):
-        return os.path.join(out_dir, scene, name + "_centers.txt")
-    errors = center_errors(path(method))
-    mean = statistics.mean(errors.values()) if errors else float("nan")
-    if method == "mapper" or not os.path.exists(path("mapper")):
-        return mean, None, None
-    mapper = center_errors(path("mapper"))
-    common = [name for name in errors if name in mapper]
-    closer = sum(1 for name in common if errors[name] < mapper[name])
-    return mean, closer, len(common)
+def closer_count(errors, reference):
+    """On how many of the images both error maps hold the first's camera is
+    the closer one, and how many they both hold. A median can fall between
+    the modes of a bimodal error distribution (South Building's reference
+    has such modes): a method a hair's breadth different then moves the
+    median by several percent. The paired count says which model is closer
+    image by image."""
+    common = [name for name in errors if name in reference]
+    return sum(1 for name in common if errors[name] < reference[name]), \
+        len(common)
 
 
 def community_phases(run_dir):
@@ -361,10 +355,16 @@ def run_scene(name, out_dir, threads, methods):
             f"{row['median_pos_err']:.4f}")
         results[method] = row
     nan = float("nan")
+    errors = {method: center_errors(os.path.join(out_dir, name,
+                                                 method + "_centers.txt"))
+              for method in methods}
     for method in methods:
         row = results[method]
-        row["mean_pos_err"], row["closer_than_mapper"], row["common_images"] = \
-            paired_figures(out_dir, name, method)
+        row["mean_pos_err"] = statistics.mean(errors[method].values()) \
+            if errors[method] else nan
+        row["closer_than_mapper"], row["common_images"] = \
+            closer_count(errors[method], errors["mapper"]) \
+            if "mapper" in errors and method != "mapper" else (None, None)
         for peer in ("mapper", "hierarchical", "hier_fair"):
             row[f"time_vs_{peer}"] = \
                 row["wall_s"] / results[peer]["wall_s"] \
