@@ -3,6 +3,7 @@
 #include "colmap_ext/scene/community_workspace.h"
 #include "colmap_ext/util/atomic_output.h"
 #include "colmap_ext/util/log_tag.h"
+#include "colmap_ext/util/process_memory.h"
 
 #include "colmap/controllers/option_manager.h"
 #include "colmap/util/misc.h"
@@ -718,6 +719,9 @@ void ParseCommand(int argc,
 }
 
 int RunStage(int argc, char** argv, const CommunityMapperStage stage) {
+  // The phases free their large buffers before the next phase allocates
+  // its own (see process_memory.h).
+  MapLargeAllocationsApart();
   CommunityMapperCommand command;
   ParseCommand(argc, argv, stage, &command);
   return RunCommunityMapperImpl(command) ? EXIT_SUCCESS : EXIT_FAILURE;

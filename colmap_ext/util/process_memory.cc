@@ -49,4 +49,12 @@ bool ReleaseFreedMemory() {
 #endif
 }
 
+bool MapLargeAllocationsApart(const int min_bytes) {
+#if defined(__GLIBC__)
+  return mallopt(M_MMAP_THRESHOLD, min_bytes) == 1;
+#else
+  return false;
+#endif
+}
+
 }  // namespace colmap

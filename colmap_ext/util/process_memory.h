@@ -27,4 +27,17 @@ std::string ProcessMemoryToString(const ProcessMemory& memory);
 // anew on the main thread. Returns whether memory was released.
 bool ReleaseFreedMemory();
 
+// Makes every allocation of at least `min_bytes` a mapping of its own, handed
+// back to the system when it is freed (glibc: mallopt M_MMAP_THRESHOLD;
+// elsewhere nothing). glibc raises that threshold by itself after large
+// blocks are freed (up to 32 MB), so that the large buffers of a phase
+// (keypoints, tracks, solver matrices) are then carved from the heap among
+// small blocks that outlive them, and their pages stay resident into the
+// next phase. A run whose phases hold different data (communities, then the
+// merge) then peaks at the next phase's data plus the last one's remnants:
+// on a generated loop of 1002 images, 60 MB left after the communities, 38
+// MB with the threshold fixed at 128 KB, and a peak of 604 MB against 580 MB
+// at the same run time. Returns whether the threshold was set.
+bool MapLargeAllocationsApart(int min_bytes = 128 * 1024);
+
 }  // namespace colmap
