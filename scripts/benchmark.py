@@ -173,18 +173,23 @@ def read_communities(path):
     return communities
 
 
-def center_errors(path):
-    """Camera centre error per image name, from a model_evaluator
-    --aligned_centers_path file (X Y Z aligned, then the ground truth)."""
-    errors = {}
+def read_centers(path):
+    """Camera centres per image name, from a model_evaluator
+    --aligned_centers_path file: (aligned X Y Z, ground truth X Y Z)."""
+    centers = {}
     for line in open(path):
         fields = line.split()
         if line.startswith("#") or len(fields) != 7:
             continue
         values = [float(value) for value in fields[1:]]
-        errors[fields[0]] = sum((a - b) ** 2 for a, b in
-                                zip(values[:3], values[3:])) ** 0.5
-    return errors
+        centers[fields[0]] = (values[:3], values[3:])
+    return centers
+
+
+def center_errors(centers):
+    """Camera centre error per image name, from read_centers."""
+    return {name: sum((a - b) ** 2 for a, b in zip(aligned, truth)) ** 0.5
+            for name, (aligned, truth) in centers.items()}
 
 
 def closer_count(errors, reference):
@@ -355,8 +360,8 @@ def run_scene(name, out_dir, threads, methods):
             f"{row['median_pos_err']:.4f}")
         results[method] = row
     nan = float("nan")
-    errors = {method: center_errors(os.path.join(out_dir, name,
-                                                 method + "_centers.txt"))
+    errors = {method: center_errors(read_centers(
+        os.path.join(out_dir, name, method + "_centers.txt")))
               for method in methods}
     for method in methods:
         row = results[method]
@@ -534,27 +539,27 @@ def plot(rows, scene_knobs, out_dir):
         centers = {}
         for method in methods:
             path = os.path.join(out_dir, scene, method + "_centers.txt")
-            centers[method] = [line.split() for line in open(path)
-                               if not line.startswith("#")]
+            centers[method] = read_centers(path)
         communities = read_communities(
             os.path.join(out_dir, scene, "community", "communities.txt"))
         axes = all_axes[0]
         all_truth = {}
         for method in methods:
-            for entry in centers[method]:
-                all_truth[entry[0]] = (float(entry[4]), float(entry[5]))
+            for name, (_, truth) in centers[method].items():
+                all_truth[name] = (truth[0], truth[1])
         axes.scatter([p[0] for p in all_truth.values()],
                      [p[1] for p in all_truth.values()], s=3, c="black")
         axes.set_title("ground truth", fontsize=9)
         for axes, method in zip(all_axes[1:], methods):
             entries = centers[method]
             if method == "community":
-                colors = [plt.cm.tab10(communities.get(e[0], -1) % 10)
-                          for e in entries]
+                colors = [plt.cm.tab10(communities.get(name, -1) % 10)
+                          for name in entries]
             else:
                 colors = COLORS[method]
-            axes.scatter([float(e[1]) for e in entries],
-                         [float(e[2]) for e in entries], s=3, c=colors)
+            axes.scatter([aligned[0] for aligned, _ in entries.values()],
+                         [aligned[1] for aligned, _ in entries.values()],
+                         s=3, c=colors)
             row = [r for r in rows
                    if r["scene"] == scene and r["method"] == method][0]
             axes.set_title(f"{LABELS[method]}\n{row['registered']} images, "
