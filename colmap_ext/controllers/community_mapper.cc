@@ -657,7 +657,8 @@ bool CommunityMapperController::Merge() {
           std::vector<std::shared_ptr<const Reconstruction>>(models.begin(),
                                                              models.end()),
           options_.pairwise_similarity,
-          options_.covisibility_check);
+          options_.covisibility_check,
+          options_.incremental_options.num_threads);
   const std::vector<RelativeSimilarity>& similarities =
       community_similarities.similarities;
   const std::unordered_set<image_pair_t>& false_pairs =

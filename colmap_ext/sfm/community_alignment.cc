@@ -1,8 +1,11 @@
 #include "colmap_ext/sfm/community_alignment.h"
 
+#include "colmap/math/random.h"
 #include "colmap/util/logging.h"
 #include "colmap/util/misc.h"
+#include "colmap/util/threading.h"
 
+#include <mutex>
 #include <set>
 #include <string>
 
@@ -32,13 +35,180 @@ CrossEdges GroupCrossEdges(
   return cross_edges;
 }
 
+namespace {
+
+// What one pair of communities gives: its similarity (if usable), its false
+// cross pairs and its log line.
+struct PairOutcome {
+  bool has_similarity = false;
+  RelativeSimilarity similarity;
+  std::vector<image_pair_t> false_pairs;
+  std::string log;
+};
+
+// The similarity of communities 1 and 2 from the images both models
+// registered and the matches of their cross edges (read from `database`
+// under `database_mutex`). RANSAC draws from a seed of the pair's own, so
+// that the outcome does not depend on the thread that runs it or on the
+// order of the pairs.
+PairOutcome EstimatePairSimilarity(
+    const Database& database,
+    std::mutex* database_mutex,
+    const std::function<bool(image_t, image_t)>& is_verified_pair,
+    const int community1,
+    const int community2,
+    const Reconstruction& model1,
+    const Reconstruction& model2,
+    const std::vector<std::pair<image_t, image_t>>& cross_edges,
+    const PairwiseSimilarityOptions& pairwise_options,
+    const CovisibilityCheckOptions& covisibility_options) {
+  SetPRNGSeed(static_cast<unsigned>(kDefaultPRNGSeed) +
+              static_cast<unsigned>(Database::ImagePairToPairId(
+                  static_cast<image_t>(community1 + 1),
+                  static_cast<image_t>(community2 + 1))));
+  PairOutcome outcome;
+  // Images on the border that both models registered: each of their
+  // keypoints with a 3D point in both is a correspondence.
+  std::vector<CrossPairMatches> cross_pairs;
+  for (const image_t image_id : model1.RegImageIds()) {
+    if (model2.ExistsImage(image_id) && model2.IsImageRegistered(image_id)) {
+      CrossPairMatches shared;
+      shared.image_id1 = image_id;
+      shared.image_id2 = image_id;
+      for (point2D_t idx = 0; idx < model1.Image(image_id).NumPoints2D();
+           ++idx) {
+        shared.matches.emplace_back(idx, idx);
+      }
+      cross_pairs.push_back(std::move(shared));
+    }
+  }
+  const size_t num_shared_images = cross_pairs.size();
+  {
+    std::lock_guard<std::mutex> lock(*database_mutex);
+    for (const auto& image_pair : cross_edges) {
+      CrossPairMatches cross_pair;
+      cross_pair.image_id1 = image_pair.first;
+      cross_pair.image_id2 = image_pair.second;
+      cross_pair.matches =
+          database.ReadTwoViewGeometry(image_pair.first, image_pair.second)
+              .inlier_matches;
+      cross_pairs.push_back(std::move(cross_pair));
+    }
+  }
+  const PointCorrespondences correspondences =
+      FindPointCorrespondences(model1, model2, cross_pairs);
+
+  CovisibilityCheck covisibility;
+  std::set<std::pair<point3D_t, point3D_t>> rejected_inliers;
+  std::string rejected;
+  int num_rejected = 0;
+  const PairwiseSimilarity similarity = EstimatePairwiseSimilarity(
+      correspondences,
+      pairwise_options,
+      [&](const PairwiseSimilarity& candidate) {
+        covisibility = CheckCovisibility(model1,
+                                         model2,
+                                         candidate.second_from_first,
+                                         is_verified_pair,
+                                         covisibility_options);
+        if (!covisibility.consistent) {
+          rejected_inliers.insert(candidate.inlier_point3D_ids.begin(),
+                                  candidate.inlier_point3D_ids.end());
+          rejected += StringPrintf(
+              " [%d inliers rejected: co-visible pairs verified %d of %d "
+              "across, %d of %d inside]",
+              candidate.num_inliers,
+              covisibility.num_verified_cross_pairs,
+              covisibility.num_predicted_cross_pairs,
+              covisibility.num_verified_internal_pairs,
+              covisibility.num_predicted_internal_pairs);
+        }
+        return covisibility.consistent;
+      },
+      &num_rejected);
+  SharedImageAgreement agreement;
+  if (similarity.success) {
+    agreement =
+        CheckSharedImages(model1,
+                          model2,
+                          similarity.second_from_first,
+                          MedianDistanceToMedian(similarity.inlier_points2),
+                          pairwise_options);
+  }
+  outcome.log = StringPrintf(
+      "Communities %d-%d: %d shared images, %d cross edges, %d point "
+      "correspondences%s -> %s",
+      community1,
+      community2,
+      static_cast<int>(num_shared_images),
+      static_cast<int>(cross_edges.size()),
+      static_cast<int>(correspondences.Size()),
+      rejected.c_str(),
+      similarity.success
+          ? StringPrintf("%d inliers, scale %.4f, co-visible pairs "
+                         "verified %d of %d across, %d of %d inside, "
+                         "shared images placed alike %d of %d (largest "
+                         "difference %.1f deg, %.2f spreads): used",
+                         similarity.num_inliers,
+                         similarity.second_from_first.scale,
+                         covisibility.num_verified_cross_pairs,
+                         covisibility.num_predicted_cross_pairs,
+                         covisibility.num_verified_internal_pairs,
+                         covisibility.num_predicted_internal_pairs,
+                         agreement.num_agreeing,
+                         agreement.num_shared_images,
+                         agreement.max_rotation_deg,
+                         agreement.max_relative_distance)
+                .c_str()
+      : num_rejected > 0 ? "no transform explains the matches, not used"
+                         : "too little support, not used");
+
+  // The cross pairs whose linked points mostly supported rejected
+  // transforms are false (on generated landmarks with identical towers,
+  // leaving them in the refinement took the median camera error from 0.03
+  // to 0.19 m).
+  if (!rejected_inliers.empty()) {
+    for (size_t k = num_shared_images; k < cross_pairs.size(); ++k) {
+      const PointCorrespondences pair_points =
+          FindPointCorrespondences(model1, model2, {cross_pairs[k]});
+      size_t num_rejected_points = 0;
+      for (size_t i = 0; i < pair_points.Size(); ++i) {
+        num_rejected_points += rejected_inliers.count(
+            {pair_points.point3D_ids1[i], pair_points.point3D_ids2[i]});
+      }
+      if (2 * num_rejected_points > pair_points.Size()) {
+        outcome.false_pairs.push_back(Database::ImagePairToPairId(
+            cross_pairs[k].image_id1, cross_pairs[k].image_id2));
+      }
+    }
+  }
+  if (!similarity.success) {
+    return outcome;
+  }
+  RelativeSimilarity& relative = outcome.similarity;
+  relative.community1 = community1;
+  relative.community2 = community2;
+  relative.second_from_first = similarity.second_from_first;
+  relative.points1 = similarity.inlier_points1;
+  relative.points2 = similarity.inlier_points2;
+  relative.point3D_ids = similarity.inlier_point3D_ids;
+  relative.num_inliers = similarity.num_inliers;
+  relative.num_shared_images = agreement.num_shared_images;
+  relative.num_agreeing_shared_images = agreement.num_agreeing;
+  outcome.has_similarity = true;
+  return outcome;
+}
+
+}  // namespace
+
 CommunitySimilarities EstimateCommunitySimilarities(
     const Database& database,
     const ViewGraph& view_graph,
     const CrossEdges& cross_edges,
     const std::vector<std::shared_ptr<const Reconstruction>>& models,
     const PairwiseSimilarityOptions& pairwise_options,
-    const CovisibilityCheckOptions& covisibility_options) {
+    const CovisibilityCheckOptions& covisibility_options,
+    const int num_threads) {
   std::unordered_set<image_pair_t> verified_pairs;
   for (const ViewGraph::Edge& edge : view_graph.Edges()) {
     verified_pairs.insert(
@@ -51,143 +221,51 @@ CommunitySimilarities EstimateCommunitySimilarities(
                Database::ImagePairToPairId(image_id1, image_id2)) > 0;
   };
 
-  CommunitySimilarities result;
+  std::vector<const CrossEdges::value_type*> pairs;
   for (const auto& pair_and_edges : cross_edges) {
-    const int community1 = pair_and_edges.first.first;
-    const int community2 = pair_and_edges.first.second;
-    THROW_CHECK_LT(community2, models.size());
-    if (!models[community1] || !models[community2]) {
-      continue;
+    THROW_CHECK_LT(pair_and_edges.first.second, models.size());
+    if (models[pair_and_edges.first.first] &&
+        models[pair_and_edges.first.second]) {
+      pairs.push_back(&pair_and_edges);
     }
-    const Reconstruction& model1 = *models[community1];
-    const Reconstruction& model2 = *models[community2];
+  }
+  // The pairs run in parallel (on dense matching each holds tens of
+  // thousands of correspondences and RANSAC takes seconds over them).
+  std::mutex database_mutex;
+  std::vector<PairOutcome> outcomes(pairs.size());
+  {
+    ThreadPool thread_pool(
+        std::max(1,
+                 std::min(static_cast<int>(pairs.size()),
+                          GetEffectiveNumThreads(num_threads))));
+    for (size_t i = 0; i < pairs.size(); ++i) {
+      thread_pool.AddTask([&, i]() {
+        const int community1 = pairs[i]->first.first;
+        const int community2 = pairs[i]->first.second;
+        outcomes[i] = EstimatePairSimilarity(database,
+                                             &database_mutex,
+                                             is_verified_pair,
+                                             community1,
+                                             community2,
+                                             *models[community1],
+                                             *models[community2],
+                                             pairs[i]->second,
+                                             pairwise_options,
+                                             covisibility_options);
+      });
+    }
+    thread_pool.Wait();
+  }
 
-    // Images on the border that both models registered: each of their
-    // keypoints with a 3D point in both is a correspondence.
-    std::vector<CrossPairMatches> cross_pairs;
-    for (const image_t image_id : model1.RegImageIds()) {
-      if (model2.ExistsImage(image_id) && model2.IsImageRegistered(image_id)) {
-        CrossPairMatches shared;
-        shared.image_id1 = image_id;
-        shared.image_id2 = image_id;
-        for (point2D_t idx = 0; idx < model1.Image(image_id).NumPoints2D();
-             ++idx) {
-          shared.matches.emplace_back(idx, idx);
-        }
-        cross_pairs.push_back(std::move(shared));
-      }
+  // Logged and gathered in the order of the pairs, whichever finished first.
+  CommunitySimilarities result;
+  for (PairOutcome& outcome : outcomes) {
+    LOG(INFO) << outcome.log;
+    result.false_pairs.insert(outcome.false_pairs.begin(),
+                              outcome.false_pairs.end());
+    if (outcome.has_similarity) {
+      result.similarities.push_back(std::move(outcome.similarity));
     }
-    const size_t num_shared_images = cross_pairs.size();
-    for (const auto& image_pair : pair_and_edges.second) {
-      CrossPairMatches cross_pair;
-      cross_pair.image_id1 = image_pair.first;
-      cross_pair.image_id2 = image_pair.second;
-      cross_pair.matches =
-          database.ReadTwoViewGeometry(image_pair.first, image_pair.second)
-              .inlier_matches;
-      cross_pairs.push_back(std::move(cross_pair));
-    }
-    const PointCorrespondences correspondences =
-        FindPointCorrespondences(model1, model2, cross_pairs);
-
-    CovisibilityCheck covisibility;
-    std::set<std::pair<point3D_t, point3D_t>> rejected_inliers;
-    std::string rejected;
-    int num_rejected = 0;
-    const PairwiseSimilarity similarity = EstimatePairwiseSimilarity(
-        correspondences,
-        pairwise_options,
-        [&](const PairwiseSimilarity& candidate) {
-          covisibility = CheckCovisibility(model1,
-                                           model2,
-                                           candidate.second_from_first,
-                                           is_verified_pair,
-                                           covisibility_options);
-          if (!covisibility.consistent) {
-            rejected_inliers.insert(candidate.inlier_point3D_ids.begin(),
-                                    candidate.inlier_point3D_ids.end());
-            rejected += StringPrintf(
-                " [%d inliers rejected: co-visible pairs verified %d of %d "
-                "across, %d of %d inside]",
-                candidate.num_inliers,
-                covisibility.num_verified_cross_pairs,
-                covisibility.num_predicted_cross_pairs,
-                covisibility.num_verified_internal_pairs,
-                covisibility.num_predicted_internal_pairs);
-          }
-          return covisibility.consistent;
-        },
-        &num_rejected);
-    SharedImageAgreement agreement;
-    if (similarity.success) {
-      agreement =
-          CheckSharedImages(model1,
-                            model2,
-                            similarity.second_from_first,
-                            MedianDistanceToMedian(similarity.inlier_points2),
-                            pairwise_options);
-    }
-    LOG(INFO) << StringPrintf(
-        "Communities %d-%d: %d shared images, %d cross edges, %d point "
-        "correspondences%s -> %s",
-        community1,
-        community2,
-        static_cast<int>(num_shared_images),
-        static_cast<int>(pair_and_edges.second.size()),
-        static_cast<int>(correspondences.Size()),
-        rejected.c_str(),
-        similarity.success
-            ? StringPrintf("%d inliers, scale %.4f, co-visible pairs "
-                           "verified %d of %d across, %d of %d inside, "
-                           "shared images placed alike %d of %d (largest "
-                           "difference %.1f deg, %.2f spreads): used",
-                           similarity.num_inliers,
-                           similarity.second_from_first.scale,
-                           covisibility.num_verified_cross_pairs,
-                           covisibility.num_predicted_cross_pairs,
-                           covisibility.num_verified_internal_pairs,
-                           covisibility.num_predicted_internal_pairs,
-                           agreement.num_agreeing,
-                           agreement.num_shared_images,
-                           agreement.max_rotation_deg,
-                           agreement.max_relative_distance)
-                  .c_str()
-        : num_rejected > 0 ? "no transform explains the matches, not used"
-                           : "too little support, not used");
-
-    // The cross pairs whose linked points mostly supported rejected
-    // transforms are false (on generated landmarks with identical towers,
-    // leaving them in the refinement took the median camera error from 0.03
-    // to 0.19 m).
-    if (!rejected_inliers.empty()) {
-      for (size_t k = num_shared_images; k < cross_pairs.size(); ++k) {
-        const PointCorrespondences pair_points =
-            FindPointCorrespondences(model1, model2, {cross_pairs[k]});
-        size_t num_rejected_points = 0;
-        for (size_t i = 0; i < pair_points.Size(); ++i) {
-          num_rejected_points += rejected_inliers.count(
-              {pair_points.point3D_ids1[i], pair_points.point3D_ids2[i]});
-        }
-        if (2 * num_rejected_points > pair_points.Size()) {
-          result.false_pairs.insert(Database::ImagePairToPairId(
-              cross_pairs[k].image_id1, cross_pairs[k].image_id2));
-        }
-      }
-    }
-    if (!similarity.success) {
-      continue;
-    }
-    RelativeSimilarity relative;
-    relative.community1 = community1;
-    relative.community2 = community2;
-    relative.second_from_first = similarity.second_from_first;
-    relative.points1 = similarity.inlier_points1;
-    relative.points2 = similarity.inlier_points2;
-    relative.point3D_ids = similarity.inlier_point3D_ids;
-    relative.num_inliers = similarity.num_inliers;
-    relative.num_shared_images = agreement.num_shared_images;
-    relative.num_agreeing_shared_images = agreement.num_agreeing;
-    result.similarities.push_back(std::move(relative));
   }
   return result;
 }

@@ -52,13 +52,16 @@ struct CommunitySimilarities {
 
 // The similarities of every pair of communities that cross edges join and
 // both of which have a model (models[c] may be null). The cross edges'
-// matches are read from the database.
+// matches are read from the database. The pairs are estimated on
+// `num_threads` threads (-1: as many as the machine has), each with a random
+// seed of its own: the result does not depend on the number of threads.
 CommunitySimilarities EstimateCommunitySimilarities(
     const Database& database,
     const ViewGraph& view_graph,
     const CrossEdges& cross_edges,
     const std::vector<std::shared_ptr<const Reconstruction>>& models,
     const PairwiseSimilarityOptions& pairwise_options,
-    const CovisibilityCheckOptions& covisibility_options);
+    const CovisibilityCheckOptions& covisibility_options,
+    int num_threads = -1);
 
 }  // namespace colmap

@@ -5,6 +5,8 @@
 
 #include "colmap/util/misc.h"
 
+#include <random>
+
 #include <gtest/gtest.h>
 
 namespace colmap {
@@ -29,18 +31,23 @@ TEST(GroupCrossEdges, GroupsEdgesBetweenCommunitiesSmallerIdFirst) {
 
 class EstimateCommunitySimilaritiesTest : public ::testing::Test {
  protected:
-  void SetUp() override {
+  void SetUp() override { Synthesize(/*num_points_per_link=*/600); }
+
+  void Synthesize(const int num_points_per_link) {
     SyntheticSceneOptions options;
     options.num_clusters = 2;
     options.num_images_per_cluster = 14;
     options.num_images_per_link = 10;
     options.num_points_per_cluster = 1500;
-    options.num_points_per_link = 600;
+    options.num_points_per_link = num_points_per_link;
     options.close_loop = false;
     options.keypoint_noise = 0.3;
     options.seed = 21;
-    database_ =
-        std::make_unique<Database>(JoinPaths(CreateTestFolder(), "database.db"));
+    database_ = std::make_unique<Database>(JoinPaths(
+        CreateTestFolder(),
+        "database" + std::to_string(num_points_per_link) + ".db"));
+    scene_ = SyntheticScene();
+    community_of_image_.clear();
     SynthesizeCommunityScene(options, &scene_, database_.get());
     view_graph_ = ViewGraph::Read(*database_, 15);
     // Cluster 1 is community 1; cluster 0 and the walkway, community 0.
@@ -121,6 +128,66 @@ TEST_F(EstimateCommunitySimilaritiesTest, CommunityWithoutModelHasNone) {
       PairwiseSimilarityOptions(),
       CovisibilityCheckOptions());
   EXPECT_TRUE(result.similarities.empty());
+}
+
+TEST_F(EstimateCommunitySimilaritiesTest, SameResultOnAnyNumberOfThreads) {
+  // Three communities (cluster 0, the walkway, cluster 1) with many points
+  // between them, each model with its points moved by noise, so that
+  // RANSAC's samples show in the result.
+  Synthesize(/*num_points_per_link=*/4000);
+  std::unordered_map<image_t, int> community_of_image;
+  for (const auto& image_and_cluster : scene_.image_cluster) {
+    community_of_image[image_and_cluster.first] =
+        image_and_cluster.second == -1 ? 2 : image_and_cluster.second;
+  }
+  std::vector<std::shared_ptr<const Reconstruction>> models;
+  std::mt19937 random(7);
+  std::normal_distribution<double> noise(0.0, 0.1);
+  for (int c = 0; c < 3; ++c) {
+    auto model = std::make_shared<Reconstruction>(scene_.ground_truth);
+    for (const image_t image_id : scene_.ground_truth.RegImageIds()) {
+      if (community_of_image.at(image_id) != c) {
+        model->DeRegisterImage(image_id);
+      }
+    }
+    for (const point3D_t point3D_id : model->Point3DIds()) {
+      model->Point3D(point3D_id).xyz +=
+          Eigen::Vector3d(noise(random), noise(random), noise(random));
+    }
+    model->Transform(world_to_community_[c % 2]);
+    models.push_back(model);
+  }
+  const CrossEdges cross_edges =
+      GroupCrossEdges(view_graph_, community_of_image);
+  ASSERT_GE(cross_edges.size(), 2);
+
+  const CommunitySimilarities one_thread =
+      EstimateCommunitySimilarities(*database_,
+                                    view_graph_,
+                                    cross_edges,
+                                    models,
+                                    PairwiseSimilarityOptions(),
+                                    CovisibilityCheckOptions(),
+                                    /*num_threads=*/1);
+  const CommunitySimilarities three_threads =
+      EstimateCommunitySimilarities(*database_,
+                                    view_graph_,
+                                    cross_edges,
+                                    models,
+                                    PairwiseSimilarityOptions(),
+                                    CovisibilityCheckOptions(),
+                                    /*num_threads=*/3);
+  ASSERT_GE(one_thread.similarities.size(), 2);
+  ASSERT_EQ(three_threads.similarities.size(), one_thread.similarities.size());
+  EXPECT_EQ(three_threads.false_pairs, one_thread.false_pairs);
+  for (size_t i = 0; i < one_thread.similarities.size(); ++i) {
+    const RelativeSimilarity& a = one_thread.similarities[i];
+    const RelativeSimilarity& b = three_threads.similarities[i];
+    EXPECT_EQ(a.community1, b.community1);
+    EXPECT_EQ(a.community2, b.community2);
+    EXPECT_EQ(a.second_from_first.ToMatrix(), b.second_from_first.ToMatrix());
+    EXPECT_EQ(a.point3D_ids, b.point3D_ids);
+  }
 }
 
 }  // namespace
