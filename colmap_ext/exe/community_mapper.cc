@@ -677,6 +677,11 @@ void ParseCommand(int argc,
       &mapper_options.refinement.sparse_solver,
       "use the sparse direct solver in the merged model's bundle adjustments "
       "at any size (COLMAP switches to the iterative one above 1000 images)");
+  add("dense_solver_min_density",
+      &mapper_options.refinement.dense_solver_min_density,
+      "use the dense Schur solver in the merged model's bundle adjustments "
+      "of at most 1000 images where at least this fraction of the pairs of "
+      "images see a common point (above 1: never)");
   // Not saved to project.ini: a saved project must not replace results.
   options.AddDefaultOption("CommunityMapper.overwrite",
                            &command->overwrite,

@@ -174,16 +174,19 @@ std::shared_ptr<Reconstruction> RestrictToImages(
 
 namespace {
 
-// Ceres options of the refinement's adjustments of `num_images` images: the
-// linear solver as COLMAP's BundleAdjuster chooses it (dense Schur up to 50
-// images, sparse up to 1000, iterative Schur above), or with
-// `sparse_solver` Ceres' sparse Schur solver (SuiteSparse) at any size. The
-// solver starts from the options' trust region radius and stops once an
-// iteration lowers the cost by less than their relative function tolerance.
+// Ceres options of the refinement's adjustments of the registered images of
+// `reconstruction`: the linear solver as COLMAP's BundleAdjuster chooses it
+// (dense Schur up to 50 images, sparse up to 1000, iterative Schur above),
+// or with `sparse_solver` Ceres' sparse Schur solver (SuiteSparse) at any
+// size; in either case the dense one up to 1000 images where the cameras
+// see each other's points densely (`dense_solver_min_density`). The solver
+// starts from the options' trust region radius and stops once an iteration
+// lowers the cost by less than their relative function tolerance.
 ceres::Solver::Options RefinementSolverOptions(
     const BundleAdjustmentOptions& options,
     const MergedModelRefinementOptions& refinement,
-    const size_t num_images) {
+    const Reconstruction& reconstruction) {
+  const size_t num_images = reconstruction.NumRegImages();
   ceres::Solver::Options solver_options = options.solver_options;
   const bool has_sparse =
       solver_options.sparse_linear_algebra_library_type != ceres::NO_SPARSE;
@@ -197,6 +200,12 @@ ceres::Solver::Options RefinementSolverOptions(
   }
   if (refinement.sparse_solver && has_sparse) {
     solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
+  }
+  if (num_images > 50 && num_images <= 1000 &&
+      refinement.dense_solver_min_density <= 1 &&
+      CameraCovisibilityDensity(reconstruction) >=
+          refinement.dense_solver_min_density) {
+    solver_options.linear_solver_type = ceres::DENSE_SCHUR;
   }
   solver_options.num_threads =
       GetEffectiveNumThreads(solver_options.num_threads);
@@ -221,7 +230,7 @@ bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
   }
   observation_manager->FilterObservationsWithNegativeDepth();
   const ceres::Solver::Options solver_options =
-      RefinementSolverOptions(options, refinement, reg_image_ids.size());
+      RefinementSolverOptions(options, refinement, *reconstruction);
   std::unordered_set<point3D_t> selected;
   if (refinement.reduced_adjustment) {
     reconstruction->UpdatePoint3DErrors();
@@ -345,13 +354,50 @@ void AlignCameras(const MergedModelRefinementOptions& options,
   alignment_options.refine_extra_params = false;
   AdjustCamerasOnTracks(
       alignment_options,
-      RefinementSolverOptions(
-          alignment_options, options, reconstruction->NumRegImages()),
+      RefinementSolverOptions(alignment_options, options, *reconstruction),
       kept,
       reconstruction);
 }
 
 }  // namespace
+
+double CameraCovisibilityDensity(const Reconstruction& reconstruction) {
+  const std::vector<image_t>& image_ids = reconstruction.RegImageIds();
+  const size_t num_images = image_ids.size();
+  if (num_images < 2) {
+    return 1.0;
+  }
+  std::unordered_map<image_t, size_t> index;
+  for (size_t i = 0; i < num_images; ++i) {
+    index.emplace(image_ids[i], i);
+  }
+  // One bit per ordered pair of images (a million images take 125 MB: the
+  // callers ask for at most a thousand).
+  std::vector<bool> covisible(num_images * num_images, false);
+  size_t num_covisible_pairs = 0;
+  std::vector<size_t> track_images;
+  for (const auto& point3D : reconstruction.Points3D()) {
+    track_images.clear();
+    for (const TrackElement& track_el : point3D.second.track.Elements()) {
+      const auto it = index.find(track_el.image_id);
+      if (it != index.end()) {
+        track_images.push_back(it->second);
+      }
+    }
+    for (size_t a = 0; a < track_images.size(); ++a) {
+      for (size_t b = 0; b < track_images.size(); ++b) {
+        const size_t i = track_images[a];
+        const size_t j = track_images[b];
+        if (i < j && !covisible[i * num_images + j]) {
+          covisible[i * num_images + j] = true;
+          ++num_covisible_pairs;
+        }
+      }
+    }
+  }
+  return static_cast<double>(num_covisible_pairs) /
+         (num_images * (num_images - 1) / 2);
+}
 
 bool MergedModelRefinementOptions::Check() const {
   CHECK_OPTION_GT(alignment_max_points_per_image, 0);
@@ -361,6 +407,7 @@ bool MergedModelRefinementOptions::Check() const {
   CHECK_OPTION_GT(max_points_per_problem, 0);
   CHECK_OPTION_GE(max_selected_observation_fraction, 0);
   CHECK_OPTION_LE(max_selected_observation_fraction, 1);
+  CHECK_OPTION_GE(dense_solver_min_density, 0);
   CHECK_OPTION_GE(function_tolerance, 0);
   CHECK_OPTION_GT(initial_trust_region_radius, 0);
   return true;
@@ -386,6 +433,13 @@ MergedModelRefinementSummary RefineMergedModel(
   const BundleAdjustmentOptions ba_options =
       mapper_options.GlobalBundleAdjustment();
   Timer timer;
+
+  if (reconstruction->NumRegImages() <= 1000) {
+    LOG(INFO) << StringPrintf(
+        "The joined model's images see a common point in %.1f%% of their "
+        "pairs",
+        100.0 * CameraCovisibilityDensity(*reconstruction));
+  }
 
   // 1. Alignment: the joined communities are each right, but where they
   // meet they are only as close as the averaged similarities put them. A
@@ -482,20 +536,21 @@ MergedModelRefinementSummary RefineMergedModel(
     ReleaseFreedMemory();
     observation_manager = std::make_unique<ObservationManager>(*reconstruction);
   };
-  const double max_change = options.max_refinement_change >= 0
-                                ? options.max_refinement_change
-                                : mapper_options.ba_global_max_refinement_change;
+  const double max_change =
+      options.max_refinement_change >= 0
+          ? options.max_refinement_change
+          : mapper_options.ba_global_max_refinement_change;
   for (int i = 0; i < std::max(1, mapper_options.ba_global_max_refinements);
        ++i) {
     if (options.reload_correspondences) {
       release_correspondences();
     }
     const size_t num_observations = reconstruction->ComputeNumObservations();
-    AdjustGlobalBundle(ba_options,
-                       options,
-                       mapper ? &mapper->ObservationManager()
-                              : observation_manager.get(),
-                       reconstruction.get());
+    AdjustGlobalBundle(
+        ba_options,
+        options,
+        mapper ? &mapper->ObservationManager() : observation_manager.get(),
+        reconstruction.get());
     reconstruction->Normalize();
     if (!mapper) {
       observation_manager.reset();
