@@ -43,9 +43,9 @@ class EstimateCommunitySimilaritiesTest : public ::testing::Test {
     options.close_loop = false;
     options.keypoint_noise = 0.3;
     options.seed = 21;
-    database_ = std::make_unique<Database>(JoinPaths(
-        CreateTestFolder(),
-        "database" + std::to_string(num_points_per_link) + ".db"));
+    database_ = std::make_unique<Database>(
+        JoinPaths(CreateTestFolder(),
+                  "database" + std::to_string(num_points_per_link) + ".db"));
     scene_ = SyntheticScene();
     community_of_image_.clear();
     SynthesizeCommunityScene(options, &scene_, database_.get());
@@ -67,13 +67,31 @@ class EstimateCommunitySimilaritiesTest : public ::testing::Test {
 
   // The ground truth of community c's images, in its own frame.
   std::shared_ptr<const Reconstruction> CommunityModel(const int c) const {
+    return CommunityModel(c, community_of_image_);
+  }
+
+  // The same with the communities `community_of_image` assigns, every point
+  // moved by normal noise of `point_noise` (drawn from `random`) before the
+  // model goes to its frame (world_to_community_[c % 2]).
+  std::shared_ptr<const Reconstruction> CommunityModel(
+      const int c,
+      const std::unordered_map<image_t, int>& community_of_image,
+      const double point_noise = 0,
+      std::mt19937* random = nullptr) const {
     auto model = std::make_shared<Reconstruction>(scene_.ground_truth);
     for (const image_t image_id : scene_.ground_truth.RegImageIds()) {
-      if (community_of_image_.at(image_id) != c) {
+      if (community_of_image.at(image_id) != c) {
         model->DeRegisterImage(image_id);
       }
     }
-    model->Transform(world_to_community_[c]);
+    if (point_noise > 0) {
+      std::normal_distribution<double> noise(0.0, point_noise);
+      for (const point3D_t point3D_id : model->Point3DIds()) {
+        model->Point3D(point3D_id).xyz +=
+            Eigen::Vector3d(noise(*random), noise(*random), noise(*random));
+      }
+    }
+    model->Transform(world_to_community_[c % 2]);
     return model;
   }
 
@@ -142,41 +160,25 @@ TEST_F(EstimateCommunitySimilaritiesTest, SameResultOnAnyNumberOfThreads) {
   }
   std::vector<std::shared_ptr<const Reconstruction>> models;
   std::mt19937 random(7);
-  std::normal_distribution<double> noise(0.0, 0.1);
   for (int c = 0; c < 3; ++c) {
-    auto model = std::make_shared<Reconstruction>(scene_.ground_truth);
-    for (const image_t image_id : scene_.ground_truth.RegImageIds()) {
-      if (community_of_image.at(image_id) != c) {
-        model->DeRegisterImage(image_id);
-      }
-    }
-    for (const point3D_t point3D_id : model->Point3DIds()) {
-      model->Point3D(point3D_id).xyz +=
-          Eigen::Vector3d(noise(random), noise(random), noise(random));
-    }
-    model->Transform(world_to_community_[c % 2]);
-    models.push_back(model);
+    models.push_back(
+        CommunityModel(c, community_of_image, /*point_noise=*/0.1, &random));
   }
   const CrossEdges cross_edges =
       GroupCrossEdges(view_graph_, community_of_image);
   ASSERT_GE(cross_edges.size(), 2);
 
-  const CommunitySimilarities one_thread =
-      EstimateCommunitySimilarities(*database_,
-                                    view_graph_,
-                                    cross_edges,
-                                    models,
-                                    PairwiseSimilarityOptions(),
-                                    CovisibilityCheckOptions(),
-                                    /*num_threads=*/1);
-  const CommunitySimilarities three_threads =
-      EstimateCommunitySimilarities(*database_,
-                                    view_graph_,
-                                    cross_edges,
-                                    models,
-                                    PairwiseSimilarityOptions(),
-                                    CovisibilityCheckOptions(),
-                                    /*num_threads=*/3);
+  const auto estimate = [&](const int num_threads) {
+    return EstimateCommunitySimilarities(*database_,
+                                         view_graph_,
+                                         cross_edges,
+                                         models,
+                                         PairwiseSimilarityOptions(),
+                                         CovisibilityCheckOptions(),
+                                         num_threads);
+  };
+  const CommunitySimilarities one_thread = estimate(1);
+  const CommunitySimilarities three_threads = estimate(3);
   ASSERT_GE(one_thread.similarities.size(), 2);
   ASSERT_EQ(three_threads.similarities.size(), one_thread.similarities.size());
   EXPECT_EQ(three_threads.false_pairs, one_thread.false_pairs);
