@@ -11,6 +11,8 @@ Scenes (default: small medium):
                            is an open chain of 10 landmarks, ~3000 images)
     huge                   an open chain of 30 landmarks, ~10,000 images
                            (for community_mapper alone: about an hour)
+    huge_loop              the same 30 landmarks closed into a loop (10,050
+                           images: scale without an open chain's drift)
     courtyard              a loop whose walkway pieces become weak
                            communities (420 images)
     chain                  an open chain, one camera per image with focal
@@ -80,6 +82,8 @@ SCENES = {
     # mapper would take days on 2 cores).
     "huge": dict(num_clusters=30, num_images_per_cluster=275,
                  num_images_per_link=60, close_loop=0),
+    "huge_loop": dict(num_clusters=30, num_images_per_cluster=275,
+                      num_images_per_link=60, close_loop=1),
     "courtyard": dict(num_clusters=3, num_images_per_cluster=60,
                       num_images_per_link=80, close_loop=1,
                       outlier_match_ratio=0.03, num_false_pairs=30, seed=5),

@@ -602,6 +602,15 @@ void ParseCommand(int argc,
       "a similarity of a community in doubt that lies on no cycle of kept "
       "similarities is dropped unless at least this many shared images, all "
       "placed alike, confirm it");
+  add("spread_cycle_drift",
+      &mapper_options.similarity_averaging.spread_cycle_drift,
+      "where a cycle of similarities does not close under L1 averaging but "
+      "every similarity beyond the bounds is confirmed by its shared images, "
+      "spread the disagreement over the cycle in least squares (drift) if "
+      "that brings every similarity within the bounds");
+  add("min_num_confirming_shared_images",
+      &mapper_options.similarity_averaging.min_num_confirming_shared_images,
+      "... at least this many shared images, all placed alike");
   add("min_registered_fraction",
       &mapper_options.judgement.min_registered_fraction,
       "a community whose model registered fewer of its images than this "

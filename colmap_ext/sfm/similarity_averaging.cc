@@ -245,6 +245,62 @@ SimilarityAveragingResult::EdgeReport ComputeResiduals(
   return report;
 }
 
+bool WithinBounds(const SimilarityAveragingResult::EdgeReport& report,
+                  const SimilarityAveragingOptions& options) {
+  // Written so that a non-finite residual counts as too large.
+  return report.rotation_residual_deg <= options.max_rotation_residual_deg &&
+         report.log_scale_residual <= options.max_log_scale_residual &&
+         report.relative_translation_residual <=
+             options.max_relative_translation_residual;
+}
+
+// Whether the L1 solution of a part leaves edges beyond the bounds that are
+// all confirmed by their shared images, and the least squares solution
+// (which spreads a cycle's disagreement over its edges) brings every edge
+// of the part within them. If so, `world_from_community` holds the least
+// squares solution for the part's nodes.
+bool SpreadCycleDrift(const std::vector<int>& nodes,
+                      const std::vector<const RelativeSimilarity*>& edges,
+                      const std::vector<double>& edge_weights,
+                      const int reference,
+                      const SimilarityAveragingOptions& options,
+                      std::vector<Sim3d>* world_from_community) {
+  bool beyond_bounds = false;
+  for (const RelativeSimilarity* edge : edges) {
+    if (WithinBounds(ComputeResiduals(*edge, *world_from_community), options)) {
+      continue;
+    }
+    beyond_bounds = true;
+    if (edge->num_shared_images < options.min_num_confirming_shared_images ||
+        edge->num_agreeing_shared_images != edge->num_shared_images) {
+      return false;
+    }
+  }
+  if (!beyond_bounds) {
+    return false;
+  }
+  SimilarityAveragingOptions least_squares_options = options;
+  least_squares_options.least_squares = true;
+  std::vector<Sim3d> spread = *world_from_community;
+  if (!AveragePart(nodes,
+                   edges,
+                   edge_weights,
+                   reference,
+                   least_squares_options,
+                   &spread)) {
+    return false;
+  }
+  for (const RelativeSimilarity* edge : edges) {
+    if (!WithinBounds(ComputeResiduals(*edge, spread), options)) {
+      return false;
+    }
+  }
+  for (const int node : nodes) {
+    (*world_from_community)[node] = spread[node];
+  }
+  return true;
+}
+
 }  // namespace
 
 bool SimilarityAveragingOptions::Check() const {
@@ -254,6 +310,7 @@ bool SimilarityAveragingOptions::Check() const {
   CHECK_OPTION_GT(max_relative_translation_residual, 0);
   CHECK_OPTION_GE(max_num_rejection_rounds, 0);
   CHECK_OPTION_GE(min_num_shared_images_in_doubt, 0);
+  CHECK_OPTION_GE(min_num_confirming_shared_images, 1);
   CHECK_OPTION_GT(doubtful_weight, 0);
   CHECK_OPTION_LE(doubtful_weight, 1);
   CHECK_OPTION_GT(full_support_num_inliers, 0);
@@ -397,6 +454,18 @@ SimilarityAveragingResult AverageSimilarities(
           result.world_from_community[node] = Sim3d();
         }
         failed = failed || !edge_indices.empty();
+      } else if (options.spread_cycle_drift &&
+                 SpreadCycleDrift(nodes,
+                                  edges,
+                                  weights,
+                                  reference,
+                                  options,
+                                  &result.world_from_community)) {
+        LOG(INFO) << "A part of " << nodes.size()
+                  << " communities does not close under L1 averaging, but "
+                     "every edge beyond the bounds is confirmed by its "
+                     "shared images and least squares spreads the "
+                     "disagreement within them: drift, kept";
       }
     }
 
@@ -411,15 +480,9 @@ SimilarityAveragingResult AverageSimilarities(
       result.edges[e] = ComputeResiduals(relative_similarities[e],
                                          result.world_from_community);
       result.edges[e].kept = true;
-      // Written so that a non-finite residual counts as too large; such an
-      // edge is rejected in any round.
-      const bool within_bounds =
-          result.edges[e].rotation_residual_deg <=
-              options.max_rotation_residual_deg &&
-          result.edges[e].log_scale_residual <=
-              options.max_log_scale_residual &&
-          result.edges[e].relative_translation_residual <=
-              options.max_relative_translation_residual;
+      // A non-finite residual counts as too large; such an edge is rejected
+      // in any round.
+      const bool within_bounds = WithinBounds(result.edges[e], options);
       const bool finite =
           std::isfinite(result.edges[e].rotation_residual_deg) &&
           std::isfinite(result.edges[e].log_scale_residual) &&

@@ -503,5 +503,92 @@ TEST(AverageSimilarities, WeaklySupportedEdgeTakesUpTheDisagreement) {
   EXPECT_LT(MaxErrors(result, problem).rotation_deg, 1e-6);
 }
 
+// Drift around a loop of many communities: every similarity of the cycle
+// maps its points `drift` further along the world's x axis than the truth
+// (as scale drift inside each community shifts where its far side meets
+// the next), so the cycle does not close by num_communities * drift. The
+// smallest community's edges are the least confident; each edge is
+// confirmed by `num_agreeing` of its 6 shared images.
+Problem MakeDriftingLoop(const int num_communities,
+                         const double drift,
+                         const int num_agreeing) {
+  std::vector<int> sizes(num_communities, 300);
+  sizes[num_communities / 2] = 25;
+  Problem problem = MakeCycle(sizes, 24);
+  const Sim3d shift(
+      1, Eigen::Quaterniond::Identity(), drift * Eigen::Vector3d::UnitX());
+  for (RelativeSimilarity& edge : problem.edges) {
+    const Sim3d& world_from_1 = problem.world_from_community[edge.community1];
+    const Sim3d& world_from_2 = problem.world_from_community[edge.community2];
+    edge.second_from_first = Inverse(world_from_2) * shift * world_from_1;
+    for (size_t k = 0; k < edge.points1.size(); ++k) {
+      edge.points2[k] = edge.second_from_first * edge.points1[k];
+    }
+    edge.num_inliers = 300;
+    edge.num_shared_images = 6;
+    edge.num_agreeing_shared_images = num_agreeing;
+  }
+  return problem;
+}
+
+TEST(AverageSimilarities, DriftAroundALongLoopIsSpreadOverItsEdges) {
+  // 30 communities, 0.6 units of drift per edge (the edges' points spread
+  // about 15 units): the loop's gap of 18 units is more than a spread, and
+  // L1 would put all of it on the small community's edges.
+  const Problem problem = MakeDriftingLoop(30, 0.6, /*num_agreeing=*/6);
+  const SimilarityAveragingResult result = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+  EXPECT_EQ(result.NumParts(), 1);
+  EXPECT_EQ(result.excluded, std::vector<bool>(30, false));
+  for (size_t e = 0; e < problem.edges.size(); ++e) {
+    EXPECT_TRUE(result.edges[e].kept) << e;
+    EXPECT_LT(result.edges[e].relative_translation_residual, 0.2) << e;
+  }
+
+  // Without the spreading, the small community leaves the merge, as it did
+  // on a generated loop of 10,050 images, and the loop stays open.
+  SimilarityAveragingOptions cut_options;
+  cut_options.spread_cycle_drift = false;
+  SimilarityAveragingResult cut =
+      AverageSimilarities(problem.Communities(), problem.edges, cut_options);
+  EXPECT_TRUE(cut.excluded[15]);
+  // The others, placed along the open loop, end up to half its gap away
+  // from where the spread loop puts them.
+  cut.world_from_community[15] = result.world_from_community[15];
+  const double cut_error = MaxErrors(cut, problem).position;
+  const double spread_error = MaxErrors(result, problem).position;
+  EXPECT_LT(spread_error, 0.5 * cut_error);
+}
+
+TEST(AverageSimilarities, DisagreementNotConfirmedBySharedImagesIsNotSpread) {
+  // The same loop, but one of every edge's shared images is placed
+  // elsewhere by one of its models: nothing vouches for the similarities
+  // beyond the bounds, and the small community leaves as before.
+  const Problem problem = MakeDriftingLoop(30, 0.6, /*num_agreeing=*/5);
+  const SimilarityAveragingResult result = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+  EXPECT_TRUE(result.excluded[15]);
+  EXPECT_EQ(result.NumParts(), 2);
+}
+
+TEST(AverageSimilarities, BentSimilarityIsNotTakenForDrift) {
+  // The small community's edge bent by 25 degrees and 60% in scale, its
+  // shared images all agreeing: spread in least squares the cycle would
+  // still leave its rotation beyond the bounds (rotations are averaged
+  // robustly in either case): the community leaves.
+  Problem problem = MakeCycle({150, 120, 110, 22, 100}, 21);
+  const int bent = FindEdge(problem, 3, 4);
+  ASSERT_GE(bent, 0);
+  Bend(&problem.edges[bent]);
+  for (RelativeSimilarity& edge : problem.edges) {
+    edge.num_shared_images = 6;
+    edge.num_agreeing_shared_images = 6;
+  }
+  const SimilarityAveragingResult result = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+  EXPECT_EQ(result.excluded,
+            (std::vector<bool>{false, false, false, true, false}));
+}
+
 }  // namespace
 }  // namespace colmap
