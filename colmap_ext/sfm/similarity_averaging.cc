@@ -126,13 +126,17 @@ void TranslationMeasurement(const RelativeSimilarity& edge,
   *spread = MedianDistanceToMedian(world_points2);
 }
 
-// Averages the similarities of one connected part in place.
+// Averages the similarities of one connected part in place. With
+// `translations_in_spreads`, every edge's translation counts in units of the
+// spread of its correspondences (its weight divided by that spread), the
+// unit of the residual bounds.
 bool AveragePart(const std::vector<int>& nodes,
                  const std::vector<const RelativeSimilarity*>& edges,
                  const std::vector<double>& edge_weights,
                  const int reference,
                  const SimilarityAveragingOptions& options,
-                 std::vector<Sim3d>* world_from_community) {
+                 std::vector<Sim3d>* world_from_community,
+                 const bool translations_in_spreads = false) {
   std::map<int, int> local;
   for (size_t k = 0; k < nodes.size(); ++k) {
     local.emplace(nodes[k], static_cast<int>(k));
@@ -191,6 +195,7 @@ bool AveragePart(const std::vector<int>& nodes,
 
   // 3. Translation: T_i - T_j = T_ij, re-estimated from the correspondences.
   Eigen::VectorXd b(3 * edges.size());
+  std::vector<double> translation_weights = edge_weights;
   for (size_t e = 0; e < edges.size(); ++e) {
     Eigen::Vector3d measurement;
     double spread;
@@ -200,11 +205,14 @@ bool AveragePart(const std::vector<int>& nodes,
                            &measurement,
                            &spread);
     b.segment<3>(3 * e) = measurement;
+    if (translations_in_spreads && spread > 0) {
+      translation_weights[e] /= spread;
+    }
   }
   Eigen::VectorXd translations;
   if (!SolveDifferenceSystem(nodes,
                              edge_nodes,
-                             edge_weights,
+                             translation_weights,
                              /*dim=*/3,
                              reference,
                              b,
@@ -261,7 +269,6 @@ bool WithinBounds(const SimilarityAveragingResult::EdgeReport& report,
 // squares solution for the part's nodes.
 bool SpreadCycleDrift(const std::vector<int>& nodes,
                       const std::vector<const RelativeSimilarity*>& edges,
-                      const std::vector<double>& edge_weights,
                       const int reference,
                       const SimilarityAveragingOptions& options,
                       std::vector<Sim3d>* world_from_community) {
@@ -279,15 +286,19 @@ bool SpreadCycleDrift(const std::vector<int>& nodes,
   if (!beyond_bounds) {
     return false;
   }
+  // Drift is no edge's fault: every edge counts alike, its translation in
+  // units of its own spread (the residual bounds' unit), so that a small
+  // community's edges do not take up the whole loop's gap.
   SimilarityAveragingOptions least_squares_options = options;
   least_squares_options.least_squares = true;
   std::vector<Sim3d> spread = *world_from_community;
   if (!AveragePart(nodes,
                    edges,
-                   edge_weights,
+                   std::vector<double>(edges.size(), 1.0),
                    reference,
                    least_squares_options,
-                   &spread)) {
+                   &spread,
+                   /*translations_in_spreads=*/true)) {
     return false;
   }
   for (const RelativeSimilarity* edge : edges) {
@@ -457,7 +468,6 @@ SimilarityAveragingResult AverageSimilarities(
       } else if (options.spread_cycle_drift &&
                  SpreadCycleDrift(nodes,
                                   edges,
-                                  weights,
                                   reference,
                                   options,
                                   &result.world_from_community)) {

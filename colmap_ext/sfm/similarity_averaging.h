@@ -27,7 +27,13 @@
 //
 // Afterwards, edges whose residuals stay large (rotation, scale ratio, or
 // translation relative to the spread of the edge's correspondences) are
-// reported and left out, and the averaging is repeated. The weaker
+// reported and left out, and the averaging is repeated. Before that, a
+// disagreement that is drift rather than a fault is told apart: if every
+// edge beyond the bounds is confirmed by the images its two communities
+// both registered, the part is averaged again in least squares (every edge
+// alike, translations in units of their spreads), which spreads a long
+// loop's gap over all its edges; if that brings every edge within the
+// bounds, that solution stands (`spread_cycle_drift`). The weaker
 // community of a rejected edge leaves the merge altogether if its model is
 // in doubt or it is small and fewer than two kept edges confirm it (its
 // images can still be registered into the merged model later): a community
@@ -111,9 +117,10 @@ struct SimilarityAveragingOptions {
   // beyond the bounds above, but each of them is confirmed by the images
   // both its communities registered (at least
   // `min_num_confirming_shared_images`, every one placed alike under its
-  // similarity), the part is averaged again in least squares, which spreads
-  // a cycle's disagreement over all its edges as loop closure spreads
-  // drift; if every edge of the part is then within the bounds, that
+  // similarity), the part is averaged again in least squares (every edge
+  // alike, translations in units of their correspondences' spread), which
+  // spreads a cycle's disagreement over all its edges as loop closure
+  // spreads drift; if every edge of the part is then within the bounds, that
   // solution is kept and nothing is rejected. A wrong similarity fails
   // either test (its shared images disagree, or spread over its cycle it
   // still exceeds the bounds); drift accumulated around a loop of many
