@@ -1,6 +1,7 @@
 #include "colmap_ext/sfm/similarity_averaging.h"
 
 #include "colmap/math/math.h"
+#include "colmap/util/logging.h"
 
 #include <algorithm>
 #include <numeric>
@@ -373,14 +374,28 @@ int FindEdge(const Problem& problem,
   return -1;
 }
 
+// A cycle (MakeCycle) whose edge between `community1` and `community2` is
+// bent (Bend); `bent`, if given, receives that edge's index.
+Problem MakeBentCycle(const std::vector<int>& sizes,
+                      const unsigned seed,
+                      const int community1,
+                      const int community2,
+                      int* bent = nullptr) {
+  Problem problem = MakeCycle(sizes, seed);
+  const int edge = FindEdge(problem, community1, community2);
+  THROW_CHECK_GE(edge, 0);
+  Bend(&problem.edges[edge]);
+  if (bent != nullptr) {
+    *bent = edge;
+  }
+  return problem;
+}
+
 TEST(AverageSimilarities, SmallCommunityThatBreaksACycleLeavesTheMerge) {
   // Community 3 is small; one of its edges disagrees with the rest of the
   // cycle. Without weights every edge of the cycle would share the
   // disagreement and be rejected: five parts.
-  Problem problem = MakeCycle({150, 120, 110, 22, 100}, 21);
-  const int bent = FindEdge(problem, 3, 4);
-  ASSERT_GE(bent, 0);
-  Bend(&problem.edges[bent]);
+  const Problem problem = MakeBentCycle({150, 120, 110, 22, 100}, 21, 3, 4);
   const SimilarityAveragingResult result = AverageSimilarities(
       problem.Communities(), problem.edges, SimilarityAveragingOptions());
 
@@ -405,10 +420,7 @@ TEST(AverageSimilarities, SmallCommunityThatBreaksACycleLeavesTheMerge) {
 
 TEST(AverageSimilarities, DoubtfulCommunityThatBreaksACycleLeavesTheMerge) {
   // Community 2 is as large as the others, but its own model is in doubt.
-  Problem problem = MakeCycle({150, 120, 110, 130, 100}, 22);
-  const int bent = FindEdge(problem, 1, 2);
-  ASSERT_GE(bent, 0);
-  Bend(&problem.edges[bent]);
+  const Problem problem = MakeBentCycle({150, 120, 110, 130, 100}, 22, 1, 2);
   std::vector<AveragedCommunity> communities = problem.Communities();
   communities[2].doubtful = true;
   const SimilarityAveragingResult result = AverageSimilarities(
@@ -485,10 +497,8 @@ TEST(AverageSimilarities, DoubtfulCommunityNeedsItsSharedImagesOnABridge) {
 TEST(AverageSimilarities, WeaklySupportedEdgeTakesUpTheDisagreement) {
   // Communities of equal standing; the wrong edge has the fewest inliers.
   // It alone is dropped and no community leaves the merge.
-  Problem problem = MakeCycle({100, 100, 100, 100, 100}, 23);
-  const int bent = FindEdge(problem, 0, 1);
-  ASSERT_GE(bent, 0);
-  Bend(&problem.edges[bent]);
+  int bent = -1;
+  Problem problem = MakeBentCycle({100, 100, 100, 100, 100}, 23, 0, 1, &bent);
   for (RelativeSimilarity& edge : problem.edges) {
     edge.num_inliers = 300;
   }
@@ -576,10 +586,7 @@ TEST(AverageSimilarities, BentSimilarityIsNotTakenForDrift) {
   // shared images all agreeing: spread in least squares the cycle would
   // still leave its rotation beyond the bounds (rotations are averaged
   // robustly in either case): the community leaves.
-  Problem problem = MakeCycle({150, 120, 110, 22, 100}, 21);
-  const int bent = FindEdge(problem, 3, 4);
-  ASSERT_GE(bent, 0);
-  Bend(&problem.edges[bent]);
+  Problem problem = MakeBentCycle({150, 120, 110, 22, 100}, 21, 3, 4);
   for (RelativeSimilarity& edge : problem.edges) {
     edge.num_shared_images = 6;
     edge.num_agreeing_shared_images = 6;
