@@ -610,7 +610,9 @@ void ParseCommand(int argc,
       "that brings every similarity within the bounds");
   add("min_num_confirming_shared_images",
       &mapper_options.similarity_averaging.min_num_confirming_shared_images,
-      "... at least this many shared images, all placed alike");
+      "a similarity beyond the bounds counts as drift only if at least this "
+      "many images both communities registered confirm it (all placed "
+      "alike, within the residual bounds)");
   add("min_registered_fraction",
       &mapper_options.judgement.min_registered_fraction,
       "a community whose model registered fewer of its images than this "

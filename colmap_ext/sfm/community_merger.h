@@ -147,8 +147,8 @@ struct MergedModelRefinementOptions {
   // six rows per image, 90 MB for 560 images). Merge stage reruns on the
   // same communities, the refinement's four adjustments dense / sparse: a
   // generated dense scene of 560 images (density 26%) 42 s / 51 s back to
-  // back, the same model; South Building (41%) 4.3 s / 7.5 s (an earlier build's
-  // run), median camera error 0.01150 / 0.01156; a generated courtyard
+  // back, the same model; South Building (41%) 4.3 s / 7.5 s (an earlier
+  // build's run), median camera error 0.01150 / 0.01156; a generated courtyard
   // loop of 420 images (14%) on par per iteration; an open chain of 500
   // (11%) 68 s / 36 s and 482 / 304 MB peak. Above 1: never.
   double dense_solver_min_density = 0.2;

@@ -267,7 +267,8 @@ bool WithinBounds(const SimilarityAveragingResult::EdgeReport& report,
 // (which spreads a cycle's disagreement over its edges) brings every edge
 // of the part within them. If so, `world_from_community` holds the least
 // squares solution for the part's nodes.
-bool SpreadCycleDrift(const std::vector<int>& nodes,
+bool SpreadCycleDrift(const std::vector<AveragedCommunity>& communities,
+                      const std::vector<int>& nodes,
                       const std::vector<const RelativeSimilarity*>& edges,
                       const int reference,
                       const SimilarityAveragingOptions& options,
@@ -278,8 +279,16 @@ bool SpreadCycleDrift(const std::vector<int>& nodes,
       continue;
     }
     beyond_bounds = true;
-    if (edge->num_shared_images < options.min_num_confirming_shared_images ||
-        edge->num_agreeing_shared_images != edge->num_shared_images) {
+    const bool confirmed =
+        !communities[edge->community1].doubtful &&
+        !communities[edge->community2].doubtful &&
+        edge->num_shared_images >= options.min_num_confirming_shared_images &&
+        edge->num_agreeing_shared_images == edge->num_shared_images &&
+        edge->max_shared_image_rotation_deg <=
+            options.max_rotation_residual_deg &&
+        edge->max_shared_image_relative_distance <=
+            options.max_relative_translation_residual;
+    if (!confirmed) {
       return false;
     }
   }
@@ -466,13 +475,14 @@ SimilarityAveragingResult AverageSimilarities(
         }
         failed = failed || !edge_indices.empty();
       } else if (options.spread_cycle_drift &&
-                 SpreadCycleDrift(nodes,
+                 SpreadCycleDrift(communities,
+                                  nodes,
                                   edges,
                                   reference,
                                   options,
                                   &result.world_from_community)) {
         LOG(INFO) << "A part of " << nodes.size()
-                  << " communities does not close under L1 averaging, but "
+                  << " communities does not close under robust averaging, but "
                      "every edge beyond the bounds is confirmed by its "
                      "shared images and least squares spreads the "
                      "disagreement within them: drift, kept";

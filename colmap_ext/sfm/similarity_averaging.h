@@ -82,6 +82,11 @@ struct RelativeSimilarity {
   // maps onto their other copy (pairwise_similarity.h, CheckSharedImages).
   int num_shared_images = 0;
   int num_agreeing_shared_images = 0;
+  // The largest rotation (degrees) and distance (in spreads of the
+  // correspondences) between the two copies of a shared image under the
+  // similarity.
+  double max_shared_image_rotation_deg = 0.0;
+  double max_shared_image_relative_distance = 0.0;
 };
 
 // A community as the averaging sees it.
@@ -114,22 +119,26 @@ struct SimilarityAveragingOptions {
   int max_num_rejection_rounds = 5;
 
   // Drift on a long cycle: where the L1 averaging of a part leaves edges
-  // beyond the bounds above, but each of them is confirmed by the images
-  // both its communities registered (at least
+  // beyond the bounds above, but each of them joins two communities not in
+  // doubt and is confirmed by the images both registered (at least
   // `min_num_confirming_shared_images`, every one placed alike under its
-  // similarity), the part is averaged again in least squares (every edge
-  // alike, translations in units of their correspondences' spread), which
+  // similarity, and the farthest apart within the rotation and translation
+  // bounds above), the part's scales and translations are averaged again in
+  // least squares (every edge alike, translations in units of their
+  // correspondences' spread; rotations stay robustly averaged), which
   // spreads a cycle's disagreement over all its edges as loop closure
-  // spreads drift; if every edge of the part is then within the bounds, that
-  // solution is kept and nothing is rejected. A wrong similarity fails
-  // either test (its shared images disagree, or spread over its cycle it
-  // still exceeds the bounds); drift accumulated around a loop of many
-  // communities passes both. On a generated loop of 30 landmark clusters
-  // (10,050 images, 32 communities) the loop's translation gap put 2.1 and
-  // 1.9 spreads on the two edges of its smallest community, which then left
-  // the merge: the loop stayed open in the joined model, and the merged
-  // model ended 3.0e-3 of the extent off at the median (1.0 degree), where
-  // a loop of 1002 images ends at 2.2e-4.
+  // spreads drift; if every edge of the part is then within the bounds,
+  // that solution is kept and nothing is rejected. A similarity that is
+  // wrong by more than the bounds moves the copies of its shared images
+  // apart by as much, and a bent one keeps its rotation residual; drift
+  // accumulated around a loop of many communities leaves every link locally
+  // right. If any edge beyond the bounds is not so confirmed, the part is
+  // treated as before (all of them rejected). On a generated loop of 30
+  // landmark clusters (10,050 images, 32 communities) the loop's translation
+  // gap put 2.1 and 1.9 spreads on the two edges of its smallest community,
+  // which then left the merge: the loop stayed open in the joined model, and
+  // the merged model ended 3.0e-3 of the extent off at the median (1.0 degree),
+  // where a loop of 1002 images ends at 2.2e-4.
   bool spread_cycle_drift = true;
   int min_num_confirming_shared_images = 2;
 

@@ -538,6 +538,23 @@ Problem MakeDriftingLoop(const int num_communities,
     edge.num_shared_images = 6;
     edge.num_agreeing_shared_images = num_agreeing;
   }
+  // The small community's links see little of it: their points spread a
+  // fifth as far, so in units of their spread they are the first to exceed
+  // the bounds (as the 29-image walkway piece of a 10,050-image loop did).
+  for (RelativeSimilarity& edge : problem.edges) {
+    if (edge.community1 != num_communities / 2 &&
+        edge.community2 != num_communities / 2) {
+      continue;
+    }
+    Eigen::Vector3d center = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector3d& point : edge.points1) {
+      center += point / edge.points1.size();
+    }
+    for (size_t k = 0; k < edge.points1.size(); ++k) {
+      edge.points1[k] = center + 0.2 * (edge.points1[k] - center);
+      edge.points2[k] = edge.second_from_first * edge.points1[k];
+    }
+  }
   return problem;
 }
 
@@ -579,6 +596,39 @@ TEST(AverageSimilarities, DisagreementNotConfirmedBySharedImagesIsNotSpread) {
       problem.Communities(), problem.edges, SimilarityAveragingOptions());
   EXPECT_TRUE(result.excluded[15]);
   EXPECT_EQ(result.NumParts(), 2);
+}
+
+TEST(AverageSimilarities, ShiftedSimilarityIsNotTakenForDrift) {
+  // A loop of 30 communities without drift, but the small community's link
+  // to its next shifted by 9 units (3 of its spreads: a period of repeated
+  // structure). L1 puts the loop's gap on it; spread over the loop in least
+  // squares it would fit within the bounds (0.1 of its spreads). Its shared
+  // images are all placed alike by count (within the check's 1 spread
+  // they could be), but the similarity moves their copies 3 spreads apart:
+  // it is no drift, and it is dropped.
+  Problem problem = MakeDriftingLoop(30, 0.0, /*num_agreeing=*/6);
+  const int shifted = FindEdge(problem, 15, 16);
+  ASSERT_GE(shifted, 0);
+  RelativeSimilarity& edge = problem.edges[shifted];
+  const Sim3d shift(
+      1, Eigen::Quaterniond::Identity(), 9 * Eigen::Vector3d::UnitY());
+  edge.second_from_first =
+      Inverse(problem.world_from_community[edge.community2]) * shift *
+      problem.world_from_community[edge.community1];
+  for (size_t k = 0; k < edge.points1.size(); ++k) {
+    edge.points2[k] = edge.second_from_first * edge.points1[k];
+  }
+  edge.max_shared_image_relative_distance = 3.0;
+  const SimilarityAveragingResult result = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+  EXPECT_FALSE(result.edges[shifted].kept);
+
+  // Had its shared images' copies been as close as the bounds ask, it would
+  // have been taken for drift and spread over the loop.
+  edge.max_shared_image_relative_distance = 0.1;
+  const SimilarityAveragingResult spread = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+  EXPECT_TRUE(spread.edges[shifted].kept);
 }
 
 TEST(AverageSimilarities, BentSimilarityIsNotTakenForDrift) {
