@@ -11,6 +11,7 @@
 #include <cmath>
 #include <map>
 #include <numeric>
+#include <unordered_set>
 
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
@@ -266,19 +267,22 @@ bool WithinBounds(const SimilarityAveragingResult::EdgeReport& report,
 // all confirmed by their shared images, and the least squares solution
 // (which spreads a cycle's disagreement over its edges) brings every edge
 // of the part within them. If so, `world_from_community` holds the least
-// squares solution for the part's nodes.
+// squares solution for the part's nodes. If some edges beyond the bounds
+// are confirmed and others not, `deferred` receives the confirmed ones: they
+// are judged again once the others are out.
 bool SpreadCycleDrift(const std::vector<AveragedCommunity>& communities,
                       const std::vector<int>& nodes,
                       const std::vector<const RelativeSimilarity*>& edges,
                       const int reference,
                       const SimilarityAveragingOptions& options,
-                      std::vector<Sim3d>* world_from_community) {
-  bool beyond_bounds = false;
+                      std::vector<Sim3d>* world_from_community,
+                      std::vector<const RelativeSimilarity*>* deferred) {
+  std::vector<const RelativeSimilarity*> confirmed_edges;
+  bool unconfirmed = false;
   for (const RelativeSimilarity* edge : edges) {
     if (WithinBounds(ComputeResiduals(*edge, *world_from_community), options)) {
       continue;
     }
-    beyond_bounds = true;
     const bool confirmed =
         !communities[edge->community1].doubtful &&
         !communities[edge->community2].doubtful &&
@@ -288,11 +292,17 @@ bool SpreadCycleDrift(const std::vector<AveragedCommunity>& communities,
             options.max_rotation_residual_deg &&
         edge->max_shared_image_relative_distance <=
             options.max_relative_translation_residual;
-    if (!confirmed) {
-      return false;
+    if (confirmed) {
+      confirmed_edges.push_back(edge);
+    } else {
+      unconfirmed = true;
     }
   }
-  if (!beyond_bounds) {
+  if (unconfirmed) {
+    *deferred = std::move(confirmed_edges);
+    return false;
+  }
+  if (confirmed_edges.empty()) {
     return false;
   }
   // Drift is no edge's fault: every edge counts alike, its translation in
@@ -440,6 +450,7 @@ SimilarityAveragingResult AverageSimilarities(
 
     // A part whose averaging fails loses its edges; the next round splits it.
     bool failed = false;
+    std::unordered_set<const RelativeSimilarity*> deferred;
     for (std::vector<int>& nodes : parts) {
       int reference = nodes.front();
       for (const int node : nodes) {
@@ -474,18 +485,22 @@ SimilarityAveragingResult AverageSimilarities(
           result.world_from_community[node] = Sim3d();
         }
         failed = failed || !edge_indices.empty();
-      } else if (options.spread_cycle_drift &&
-                 SpreadCycleDrift(communities,
-                                  nodes,
-                                  edges,
-                                  reference,
-                                  options,
-                                  &result.world_from_community)) {
-        LOG(INFO) << "A part of " << nodes.size()
-                  << " communities does not close under robust averaging, but "
-                     "every edge beyond the bounds is confirmed by its "
-                     "shared images and least squares spreads the "
-                     "disagreement within them: drift, kept";
+      } else if (options.spread_cycle_drift) {
+        std::vector<const RelativeSimilarity*> deferred_edges;
+        if (SpreadCycleDrift(communities,
+                             nodes,
+                             edges,
+                             reference,
+                             options,
+                             &result.world_from_community,
+                             &deferred_edges)) {
+          LOG(INFO) << "A part of " << nodes.size()
+                    << " communities does not close under robust averaging, "
+                       "but every edge beyond the bounds is confirmed by its "
+                       "shared images and least squares spreads the "
+                       "disagreement within them: drift, kept";
+        }
+        deferred.insert(deferred_edges.begin(), deferred_edges.end());
       }
     }
 
@@ -507,7 +522,11 @@ SimilarityAveragingResult AverageSimilarities(
           std::isfinite(result.edges[e].rotation_residual_deg) &&
           std::isfinite(result.edges[e].log_scale_residual) &&
           std::isfinite(result.edges[e].relative_translation_residual);
-      if (!within_bounds &&
+      // An edge beyond the bounds that its shared images confirm waits while
+      // unconfirmed ones of its part go (SpreadCycleDrift).
+      const bool waits =
+          finite && deferred.count(&relative_similarities[e]) > 0;
+      if (!within_bounds && !waits &&
           (round < options.max_num_rejection_rounds || !finite)) {
         result.edges[e].kept = false;
         rejected = true;

@@ -132,8 +132,9 @@ struct SimilarityAveragingOptions {
   // wrong by more than the bounds moves the copies of its shared images
   // apart by as much, and a bent one keeps its rotation residual; drift
   // accumulated around a loop of many communities leaves every link locally
-  // right. If any edge beyond the bounds is not so confirmed, the part is
-  // treated as before (all of them rejected). On a generated loop of 30
+  // right. Where some edges beyond the bounds are confirmed and others not,
+  // the others are rejected first and the confirmed ones judged again in the
+  // next round, without them. On a generated loop of 30
   // landmark clusters (10,050 images, 32 communities) the loop's translation
   // gap put 2.1 and 1.9 spreads on the two edges of its smallest community,
   // which then left the merge: the loop stayed open in the joined model, and

@@ -598,6 +598,33 @@ TEST(AverageSimilarities, DisagreementNotConfirmedBySharedImagesIsNotSpread) {
   EXPECT_EQ(result.NumParts(), 2);
 }
 
+TEST(AverageSimilarities, DriftIsSpreadOnceAWrongLinkIsOut) {
+  // The drifting loop with one more link, a chord between communities 5 and
+  // 20 bent by 25 degrees, weakly supported and not confirmed by its shared
+  // images. The chord goes first; the loop's drift is then spread, and the
+  // small community stays.
+  Problem problem = MakeDriftingLoop(30, 0.6, /*num_agreeing=*/6);
+  RelativeSimilarity wrong = problem.edges[FindEdge(problem, 5, 6)];
+  wrong.community2 = 20;
+  wrong.second_from_first = Inverse(problem.world_from_community[20]) *
+                            problem.world_from_community[5];
+  for (size_t k = 0; k < wrong.points1.size(); ++k) {
+    wrong.points2[k] = wrong.second_from_first * wrong.points1[k];
+  }
+  Bend(&wrong);
+  wrong.num_inliers = 5;
+  wrong.num_agreeing_shared_images = 5;
+  problem.edges.push_back(wrong);
+  const SimilarityAveragingResult result = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+  EXPECT_FALSE(result.edges.back().kept);
+  EXPECT_EQ(result.excluded, std::vector<bool>(30, false));
+  EXPECT_EQ(result.NumParts(), 1);
+  for (size_t e = 0; e + 1 < problem.edges.size(); ++e) {
+    EXPECT_TRUE(result.edges[e].kept) << e;
+  }
+}
+
 TEST(AverageSimilarities, ShiftedSimilarityIsNotTakenForDrift) {
   // A loop of 30 communities without drift, but the small community's link
   // to its next shifted by 9 units (3 of its spreads: a period of repeated
