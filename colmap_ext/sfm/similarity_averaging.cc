@@ -254,6 +254,14 @@ SimilarityAveragingResult::EdgeReport ComputeResiduals(
   return report;
 }
 
+// Whether at least `min_num_shared_images` images were registered by both
+// communities of `edge` and every one is placed alike under its similarity.
+bool SharedImagesConfirm(const RelativeSimilarity& edge,
+                         const int min_num_shared_images) {
+  return edge.num_shared_images >= min_num_shared_images &&
+         edge.num_agreeing_shared_images == edge.num_shared_images;
+}
+
 bool WithinBounds(const SimilarityAveragingResult::EdgeReport& report,
                   const SimilarityAveragingOptions& options) {
   // Written so that a non-finite residual counts as too large.
@@ -286,8 +294,7 @@ bool SpreadCycleDrift(const std::vector<AveragedCommunity>& communities,
     const bool confirmed =
         !communities[edge->community1].doubtful &&
         !communities[edge->community2].doubtful &&
-        edge->num_shared_images >= options.min_num_confirming_shared_images &&
-        edge->num_agreeing_shared_images == edge->num_shared_images &&
+        SharedImagesConfirm(*edge, options.min_num_confirming_shared_images) &&
         edge->max_shared_image_rotation_deg <=
             options.max_rotation_residual_deg &&
         edge->max_shared_image_relative_distance <=
@@ -574,8 +581,7 @@ SimilarityAveragingResult AverageSimilarities(
                                      communities[edge.community2].doubtful)) {
         continue;
       }
-      if (edge.num_shared_images >= options.min_num_shared_images_in_doubt &&
-          edge.num_agreeing_shared_images == edge.num_shared_images) {
+      if (SharedImagesConfirm(edge, options.min_num_shared_images_in_doubt)) {
         continue;
       }
       std::vector<std::pair<int, int>> other_edges;

@@ -134,12 +134,12 @@ struct SimilarityAveragingOptions {
   // accumulated around a loop of many communities leaves every link locally
   // right. Where some edges beyond the bounds are confirmed and others not,
   // the others are rejected first and the confirmed ones judged again in the
-  // next round, without them. On a generated loop of 30
-  // landmark clusters (10,050 images, 32 communities) the loop's translation
-  // gap put 2.1 and 1.9 spreads on the two edges of its smallest community,
-  // which then left the merge: the loop stayed open in the joined model, and
-  // the merged model ended 3.0e-3 of the extent off at the median (1.0 degree),
-  // where a loop of 1002 images ends at 2.2e-4.
+  // next round, without them. On a generated loop of 30 landmark clusters
+  // (10,050 images, 32 communities) the loop's translation gap put 2.1 and
+  // 1.9 spreads on the two edges of its smallest community, which then left
+  // the merge: the loop stayed open in the joined model, and the merged
+  // model ended 3.0e-3 of the extent off at the median (1.0 degree), where
+  // a loop of 1002 images ends at 2.2e-4; with the gap spread, 8.8e-4.
   bool spread_cycle_drift = true;
   int min_num_confirming_shared_images = 2;
 
