@@ -254,12 +254,15 @@ SimilarityAveragingResult::EdgeReport ComputeResiduals(
   return report;
 }
 
-// Whether at least `min_num_shared_images` images were registered by both
-// communities of `edge` and every one is placed alike under its similarity.
+// Whether at least `min_num_shared_images` of the images both communities
+// of `edge` registered are placed alike under its similarity, and they are
+// most of them (more than half): a wrong similarity places (nearly) all of
+// them elsewhere, where one image misplaced by a model that is in doubt
+// must not veto what the others confirm.
 bool SharedImagesConfirm(const RelativeSimilarity& edge,
                          const int min_num_shared_images) {
-  return edge.num_shared_images >= min_num_shared_images &&
-         edge.num_agreeing_shared_images == edge.num_shared_images;
+  return edge.num_agreeing_shared_images >= min_num_shared_images &&
+         2 * edge.num_agreeing_shared_images > edge.num_shared_images;
 }
 
 bool WithinBounds(const SimilarityAveragingResult::EdgeReport& report,
@@ -295,6 +298,7 @@ bool SpreadCycleDrift(const std::vector<AveragedCommunity>& communities,
         !communities[edge->community1].doubtful &&
         !communities[edge->community2].doubtful &&
         SharedImagesConfirm(*edge, options.min_num_confirming_shared_images) &&
+        edge->num_agreeing_shared_images == edge->num_shared_images &&
         edge->max_shared_image_rotation_deg <=
             options.max_rotation_residual_deg &&
         edge->max_shared_image_relative_distance <=

@@ -468,6 +468,15 @@ TEST(AverageSimilarities, DoubtfulCommunityNeedsItsSharedImagesOnABridge) {
   EXPECT_NE(result.part_of_community[2], result.part_of_community[0]);
   EXPECT_EQ(result.excluded, (std::vector<bool>{false, false, false}));
 
+  // One of the 6 placed elsewhere (an image the model in doubt registered
+  // wrongly), the other 5 alike: the edge stays, one part.
+  path[edge12].num_agreeing_shared_images = 5;
+  result = AverageSimilarities(communities, path, SimilarityAveragingOptions());
+  EXPECT_TRUE(result.edges[edge12].kept);
+  EXPECT_FALSE(result.edges[edge12].unconfirmed);
+  EXPECT_EQ(result.NumParts(), 1);
+  path[edge12].num_agreeing_shared_images = 3;
+
   // Without doubt, the same edge stays: a single borrowed image placed
   // wrongly by a sound model does not cut the merge.
   communities[1].doubtful = false;
