@@ -157,9 +157,9 @@ struct SimilarityAveragingOptions {
   double min_relative_size = 0.5;
 
   // An edge of a community in doubt that lies on no cycle of kept edges is
-  // dropped unless at least this many images were registered by both
-  // communities and every one is placed alike by the two models under its
-  // similarity.
+  // dropped unless at least this many of the images both communities
+  // registered, and more than half of them, are placed alike by the two
+  // models under its similarity.
   int min_num_shared_images_in_doubt = 2;
 
   bool Check() const;
