@@ -24,6 +24,32 @@ namespace {
 
 using Models = std::vector<std::shared_ptr<Reconstruction>>;
 
+// The fraction of `image_names` whose camera no other image of the database
+// uses.
+double OwnCameraFraction(const std::string& database_path,
+                         const std::unordered_set<std::string>& image_names,
+                         std::mutex* database_mutex) {
+  std::vector<Image> images;
+  {
+    std::lock_guard<std::mutex> lock(*database_mutex);
+    const Database database(database_path);
+    images = database.ReadAllImages();
+  }
+  std::unordered_map<camera_t, int> num_images_of_camera;
+  for (const Image& image : images) {
+    ++num_images_of_camera[image.CameraId()];
+  }
+  int num_own = 0;
+  int num_found = 0;
+  for (const Image& image : images) {
+    if (image_names.count(image.Name()) > 0) {
+      ++num_found;
+      num_own += num_images_of_camera.at(image.CameraId()) == 1 ? 1 : 0;
+    }
+  }
+  return num_found == 0 ? 0.0 : static_cast<double>(num_own) / num_found;
+}
+
 // Where the memory stands after a step (for a long run's log).
 void LogMemory(const std::string& step) {
   LOG(INFO) << "Memory after " << step << ": "
@@ -305,11 +331,15 @@ int CommunityMapperController::Options::MinNumMatches() const {
 IncrementalMapperOptions
 CommunityMapperController::Options::CommunityIncrementalOptions(
     const std::unordered_set<std::string>& image_names,
-    const int num_threads) const {
+    const int num_threads,
+    const double own_camera_fraction) const {
   IncrementalMapperOptions community_options = incremental_options;
   community_options.image_names = image_names;
   if (community_options.num_threads < 0) {
     community_options.num_threads = num_threads;
+  }
+  if (mapper_schedule_for_own_cameras && own_camera_fraction > 0.5) {
+    return community_options;
   }
   if (community_ba_function_tolerance >= 0) {
     community_options.ba_global_function_tolerance =
@@ -518,9 +548,19 @@ bool CommunityMapperController::ReconstructAndRecord(
   record.num_images = static_cast<int>(image_names.size());
   record.database_fingerprint = plan_.database_fingerprint;
   try {
+    const double own_camera_fraction =
+        OwnCameraFraction(options_.database_path, image_names, database_mutex);
+    if (options_.mapper_schedule_for_own_cameras &&
+        own_camera_fraction > 0.5) {
+      LOG(INFO) << StringPrintf(
+          "%.0f%% of the images have a camera of their own: the mapper's "
+          "own global adjustments",
+          100 * own_camera_fraction);
+    }
     const CommunityReconstruction reconstruction = colmap::ReconstructCommunity(
         std::make_shared<const IncrementalMapperOptions>(
-            options_.CommunityIncrementalOptions(image_names, num_threads)),
+            options_.CommunityIncrementalOptions(
+                image_names, num_threads, own_camera_fraction)),
         options_.image_path,
         options_.database_path,
         database_mutex);

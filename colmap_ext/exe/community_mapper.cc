@@ -256,7 +256,8 @@ std::string PlanOptions(const std::string& project_ini) {
       "edge_weights",
       "image_overlap",
       "community_ba_function_tolerance",
-      "community_ba_global_ratio"};
+      "community_ba_global_ratio",
+      "mapper_schedule_for_own_cameras"};
   static const std::set<std::string> kIgnoredMapperKeys = {
       "num_threads", "snapshot_path", "snapshot_images_freq"};
   std::string plan_options;
@@ -561,6 +562,11 @@ void ParseCommand(int argc,
       "growth of a community's model (images or points) after which it is "
       "bundle adjusted as a whole (-1: Mapper.ba_global_images_ratio and "
       "Mapper.ba_global_points_ratio)");
+  add("mapper_schedule_for_own_cameras",
+      &mapper_options.mapper_schedule_for_own_cameras,
+      "a community most of whose images have a camera of their own runs the "
+      "mapper's own global adjustments (Mapper.ba_global_function_tolerance "
+      "and ratios) instead of the two settings above");
   add("pairwise_max_relative_error",
       &mapper_options.pairwise_similarity.max_relative_error,
       "similarity RANSAC inlier threshold, relative to the spread of the "
