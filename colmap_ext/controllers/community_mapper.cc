@@ -550,8 +550,7 @@ bool CommunityMapperController::ReconstructAndRecord(
   try {
     const double own_camera_fraction =
         OwnCameraFraction(options_.database_path, image_names, database_mutex);
-    if (options_.mapper_schedule_for_own_cameras &&
-        own_camera_fraction > 0.5) {
+    if (options_.mapper_schedule_for_own_cameras && own_camera_fraction > 0.5) {
       LOG(INFO) << StringPrintf(
           "%.0f%% of the images have a camera of their own: the mapper's "
           "own global adjustments",

@@ -5,6 +5,16 @@
 namespace colmap {
 namespace {
 
+// The incremental mapper's own global adjustment schedule (COLMAP's
+// defaults).
+void ExpectMappersGlobalAdjustments(const IncrementalMapperOptions& options) {
+  const IncrementalMapperOptions defaults;
+  EXPECT_EQ(options.ba_global_function_tolerance,
+            defaults.ba_global_function_tolerance);
+  EXPECT_EQ(options.ba_global_images_ratio, defaults.ba_global_images_ratio);
+  EXPECT_EQ(options.ba_global_points_ratio, defaults.ba_global_points_ratio);
+}
+
 TEST(CommunityIncrementalOptions, CommunitySettingsOverrideTheMappers) {
   CommunityMapperController::Options options;
   options.community_ba_function_tolerance = 1e-5;
@@ -29,35 +39,23 @@ TEST(CommunityIncrementalOptions, MinusOneKeepsTheMappersSettings) {
   options.community_ba_function_tolerance = -1;
   options.community_ba_global_ratio = -1;
   options.incremental_options.num_threads = 5;
-  const IncrementalMapperOptions defaults;
   const IncrementalMapperOptions community_options =
       options.CommunityIncrementalOptions({"a.jpg"}, /*num_threads=*/3);
   EXPECT_EQ(community_options.num_threads, 5);
-  EXPECT_EQ(community_options.ba_global_function_tolerance,
-            defaults.ba_global_function_tolerance);
-  EXPECT_EQ(community_options.ba_global_images_ratio,
-            defaults.ba_global_images_ratio);
-  EXPECT_EQ(community_options.ba_global_points_ratio,
-            defaults.ba_global_points_ratio);
+  ExpectMappersGlobalAdjustments(community_options);
 }
 
 TEST(CommunityIncrementalOptions, ImagesWithCamerasOfTheirOwnKeepTheMappers) {
   CommunityMapperController::Options options;
   options.community_ba_function_tolerance = 1e-5;
   options.community_ba_global_ratio = 1.3;
-  const IncrementalMapperOptions defaults;
   // Most images with a camera of their own: the mapper's schedule.
   IncrementalMapperOptions community_options =
       options.CommunityIncrementalOptions({"a.jpg"}, /*num_threads=*/3, 0.9);
   EXPECT_EQ(community_options.num_threads, 3);
   EXPECT_EQ(community_options.image_names,
             std::unordered_set<std::string>({"a.jpg"}));
-  EXPECT_EQ(community_options.ba_global_function_tolerance,
-            defaults.ba_global_function_tolerance);
-  EXPECT_EQ(community_options.ba_global_images_ratio,
-            defaults.ba_global_images_ratio);
-  EXPECT_EQ(community_options.ba_global_points_ratio,
-            defaults.ba_global_points_ratio);
+  ExpectMappersGlobalAdjustments(community_options);
   // Half or fewer: the community settings.
   community_options =
       options.CommunityIncrementalOptions({"a.jpg"}, /*num_threads=*/3, 0.5);
