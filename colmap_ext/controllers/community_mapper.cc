@@ -338,7 +338,7 @@ CommunityMapperController::Options::CommunityIncrementalOptions(
   if (community_options.num_threads < 0) {
     community_options.num_threads = num_threads;
   }
-  if (mapper_schedule_for_own_cameras && own_camera_fraction > 0.5) {
+  if (UsesMapperSchedule(own_camera_fraction)) {
     return community_options;
   }
   if (community_ba_function_tolerance >= 0) {
@@ -350,6 +350,11 @@ CommunityMapperController::Options::CommunityIncrementalOptions(
     community_options.ba_global_points_ratio = community_ba_global_ratio;
   }
   return community_options;
+}
+
+bool CommunityMapperController::Options::UsesMapperSchedule(
+    const double own_camera_fraction) const {
+  return mapper_schedule_for_own_cameras && own_camera_fraction > 0.5;
 }
 
 bool CommunityMapperController::Options::Check() const {
@@ -548,9 +553,19 @@ bool CommunityMapperController::ReconstructAndRecord(
   record.num_images = static_cast<int>(image_names.size());
   record.database_fingerprint = plan_.database_fingerprint;
   try {
-    const double own_camera_fraction =
-        OwnCameraFraction(options_.database_path, image_names, database_mutex);
-    if (options_.mapper_schedule_for_own_cameras && own_camera_fraction > 0.5) {
+    double own_camera_fraction = 0;
+    if (options_.mapper_schedule_for_own_cameras) {
+      try {
+        own_camera_fraction = OwnCameraFraction(
+            options_.database_path, image_names, database_mutex);
+      } catch (const std::exception& error) {
+        // E.g. "database is locked" while another process opens it: the
+        // community settings then apply.
+        LOG(WARNING) << "Reading the cameras of the images failed: "
+                     << error.what();
+      }
+    }
+    if (options_.UsesMapperSchedule(own_camera_fraction)) {
       LOG(INFO) << StringPrintf(
           "%.0f%% of the images have a camera of their own: the mapper's "
           "own global adjustments",

@@ -132,6 +132,10 @@ class CommunityMapperController : public BaseController {
     // refinement less from their better start.
     bool mapper_schedule_for_own_cameras = true;
 
+    // Whether mapper_schedule_for_own_cameras applies to a community whose
+    // images have a camera of their own in this fraction.
+    bool UsesMapperSchedule(double own_camera_fraction) const;
+
     // Pairwise similarity estimation between connected communities.
     PairwiseSimilarityOptions pairwise_similarity;
 

@@ -51,20 +51,21 @@ TEST(CommunityIncrementalOptions, ImagesWithCamerasOfTheirOwnKeepTheMappers) {
   options.community_ba_global_ratio = 1.3;
   // Most images with a camera of their own: the mapper's schedule.
   IncrementalMapperOptions community_options =
-      options.CommunityIncrementalOptions({"a.jpg"}, /*num_threads=*/3, 0.9);
+      options.CommunityIncrementalOptions(
+          {"a.jpg"}, /*num_threads=*/3, /*own_camera_fraction=*/0.9);
   EXPECT_EQ(community_options.num_threads, 3);
   EXPECT_EQ(community_options.image_names,
             std::unordered_set<std::string>({"a.jpg"}));
   ExpectMappersGlobalAdjustments(community_options);
   // Half or fewer: the community settings.
-  community_options =
-      options.CommunityIncrementalOptions({"a.jpg"}, /*num_threads=*/3, 0.5);
+  community_options = options.CommunityIncrementalOptions(
+      {"a.jpg"}, /*num_threads=*/3, /*own_camera_fraction=*/0.5);
   EXPECT_EQ(community_options.ba_global_function_tolerance, 1e-5);
   EXPECT_EQ(community_options.ba_global_images_ratio, 1.3);
   // Turned off: the community settings whatever the cameras.
   options.mapper_schedule_for_own_cameras = false;
-  community_options =
-      options.CommunityIncrementalOptions({"a.jpg"}, /*num_threads=*/3, 1.0);
+  community_options = options.CommunityIncrementalOptions(
+      {"a.jpg"}, /*num_threads=*/3, /*own_camera_fraction=*/1.0);
   EXPECT_EQ(community_options.ba_global_function_tolerance, 1e-5);
   EXPECT_EQ(community_options.ba_global_points_ratio, 1.3);
 }

@@ -606,8 +606,8 @@ void ParseCommand(int argc,
   add("min_num_shared_images_in_doubt",
       &mapper_options.similarity_averaging.min_num_shared_images_in_doubt,
       "a similarity of a community in doubt that lies on no cycle of kept "
-      "similarities is dropped unless at least this many shared images, and "
-      "more than half of them, are placed alike");
+      "similarities is dropped unless at least this many shared images are "
+      "placed alike, and at most one is not");
   add("spread_cycle_drift",
       &mapper_options.similarity_averaging.spread_cycle_drift,
       "where a cycle of similarities does not close under L1 averaging but "

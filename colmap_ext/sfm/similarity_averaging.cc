@@ -255,14 +255,14 @@ SimilarityAveragingResult::EdgeReport ComputeResiduals(
 }
 
 // Whether at least `min_num_shared_images` of the images both communities
-// of `edge` registered are placed alike under its similarity, and they are
-// most of them (more than half): a wrong similarity places (nearly) all of
-// them elsewhere, where one image misplaced by a model that is in doubt
-// must not veto what the others confirm.
+// of `edge` registered are placed alike under its similarity and at most
+// one is not: one image misplaced by a model in doubt must not veto what
+// the others confirm, but a wrong similarity can agree with several images
+// a doubtful model misplaced together (on South Building, 3 of 6 alike).
 bool SharedImagesConfirm(const RelativeSimilarity& edge,
                          const int min_num_shared_images) {
   return edge.num_agreeing_shared_images >= min_num_shared_images &&
-         2 * edge.num_agreeing_shared_images > edge.num_shared_images;
+         edge.num_shared_images - edge.num_agreeing_shared_images <= 1;
 }
 
 bool WithinBounds(const SimilarityAveragingResult::EdgeReport& report,

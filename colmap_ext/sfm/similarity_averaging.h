@@ -42,8 +42,8 @@
 // the merged model. An edge that lies on no cycle of kept edges (a bridge)
 // has zero residuals whatever it is worth: if it joins a community in
 // doubt, it is kept only if the images both communities registered confirm
-// it, at least two of them and every one placed alike by the two models
-// under its similarity. On South Building, a community that broke into two
+// it, at least two of them placed alike by the two models under its
+// similarity and at most one not. On South Building, a community that broke into two
 // models had registered three of its neighbour's images 5 units off (extent
 // 11); its only link to that neighbour placed 3 of 6 shared images alike
 // (85 deg, 9.9 spreads apart) and merged the neighbour wrongly. Right links
@@ -158,8 +158,8 @@ struct SimilarityAveragingOptions {
 
   // An edge of a community in doubt that lies on no cycle of kept edges is
   // dropped unless at least this many of the images both communities
-  // registered, and more than half of them, are placed alike by the two
-  // models under its similarity.
+  // registered are placed alike by the two models under its similarity, and
+  // at most one is not.
   int min_num_shared_images_in_doubt = 2;
 
   bool Check() const;

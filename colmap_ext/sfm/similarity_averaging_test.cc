@@ -475,6 +475,11 @@ TEST(AverageSimilarities, DoubtfulCommunityNeedsItsSharedImagesOnABridge) {
   EXPECT_TRUE(result.edges[edge12].kept);
   EXPECT_FALSE(result.edges[edge12].unconfirmed);
   EXPECT_EQ(result.NumParts(), 1);
+  // Two of them placed elsewhere: not confirmed, even by a majority.
+  path[edge12].num_agreeing_shared_images = 4;
+  result = AverageSimilarities(communities, path, SimilarityAveragingOptions());
+  EXPECT_FALSE(result.edges[edge12].kept);
+  EXPECT_EQ(result.NumParts(), 2);
   path[edge12].num_agreeing_shared_images = 3;
 
   // Without doubt, the same edge stays: a single borrowed image placed
