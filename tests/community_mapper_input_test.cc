@@ -263,6 +263,27 @@ TEST_F(CommunityMapperInputTest, EarlierResultsAreNotReplacedSilently) {
   EXPECT_FALSE(ExistsDir(model_path));
 }
 
+TEST_F(CommunityMapperInputTest, OptionsBesideAProjectFileAreRefused) {
+  // COLMAP reads every option from the project file: one given beside it
+  // would be dropped silently.
+  const std::string project_path = JoinPaths(output_path_, "project.ini");
+  for (const std::string command : {"community_merger",
+                                    "community_reconstructor --community_id 0",
+                                    "community_mapper"}) {
+    std::string output;
+    EXPECT_NE(RunCommand(std::string(COLMAP_BINARY) + " " + command +
+                             " --project_path " + ShellQuote(project_path) +
+                             " --CommunityMapper.ba_function_tolerance=0",
+                         &output),
+              0)
+        << command;
+    EXPECT_NE(output.find("--CommunityMapper.ba_function_tolerance on the "
+                          "command line would be ignored"),
+              std::string::npos)
+        << command << ": " << output;
+  }
+}
+
 TEST_F(CommunityMapperInputTest, HelpListsEveryOptionWithItsDefault) {
   std::string output;
   EXPECT_EQ(

@@ -499,6 +499,32 @@ void ParseCommand(int argc,
     }
   }
 
+  // With --project_path, COLMAP's OptionManager reads every option from the
+  // file and silently drops the command line's: refuse them instead, so that
+  // nobody merges again believing an option changed.
+  bool has_project_path = false;
+  std::string dropped_options;
+  for (size_t i = 1; i < arguments.size(); ++i) {
+    const std::string argument = arguments[i];
+    if (argument == "--project_path") {
+      has_project_path = true;
+      ++i;
+    } else if (argument.rfind("--project_path=", 0) == 0) {
+      has_project_path = true;
+    } else if (argument.rfind("--", 0) == 0) {
+      dropped_options += (dropped_options.empty() ? "" : ", ") +
+                         argument.substr(0, argument.find('='));
+    }
+  }
+  if (has_project_path && !dropped_options.empty()) {
+    LOG(ERROR) << "With --project_path every option is read from that file; "
+               << dropped_options
+               << " on the command line would be ignored. Change it in the "
+                  "project file (e.g. OUT/project.ini), or give the options "
+                  "without --project_path.";
+    std::exit(EXIT_FAILURE);
+  }
+
   OptionManager options;
   options.AddDatabaseOptions();
   options.AddImageOptions();
