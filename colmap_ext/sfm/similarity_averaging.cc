@@ -254,15 +254,15 @@ SimilarityAveragingResult::EdgeReport ComputeResiduals(
   return report;
 }
 
-// Whether at least `min_num_shared_images` of the images both communities
-// of `edge` registered are placed alike under its similarity and at most
-// one is not: one image misplaced by a model in doubt must not veto what
-// the others confirm, but a wrong similarity can agree with several images
-// a doubtful model misplaced together (on South Building, 3 of 6 alike).
+// Whether at least `min_num_agreeing` of the images both communities of
+// `edge` registered are placed alike under its similarity and at most
+// `max_num_disagreeing` are not.
 bool SharedImagesConfirm(const RelativeSimilarity& edge,
-                         const int min_num_shared_images) {
-  return edge.num_agreeing_shared_images >= min_num_shared_images &&
-         edge.num_shared_images - edge.num_agreeing_shared_images <= 1;
+                         const int min_num_agreeing,
+                         const int max_num_disagreeing) {
+  return edge.num_agreeing_shared_images >= min_num_agreeing &&
+         edge.num_shared_images - edge.num_agreeing_shared_images <=
+             max_num_disagreeing;
 }
 
 bool WithinBounds(const SimilarityAveragingResult::EdgeReport& report,
@@ -297,8 +297,9 @@ bool SpreadCycleDrift(const std::vector<AveragedCommunity>& communities,
     const bool confirmed =
         !communities[edge->community1].doubtful &&
         !communities[edge->community2].doubtful &&
-        SharedImagesConfirm(*edge, options.min_num_confirming_shared_images) &&
-        edge->num_agreeing_shared_images == edge->num_shared_images &&
+        SharedImagesConfirm(*edge,
+                            options.min_num_confirming_shared_images,
+                            /*max_num_disagreeing=*/0) &&
         edge->max_shared_image_rotation_deg <=
             options.max_rotation_residual_deg &&
         edge->max_shared_image_relative_distance <=
@@ -585,7 +586,12 @@ SimilarityAveragingResult AverageSimilarities(
                                      communities[edge.community2].doubtful)) {
         continue;
       }
-      if (SharedImagesConfirm(edge, options.min_num_shared_images_in_doubt)) {
+      // One image misplaced by a model in doubt does not veto what the others
+      // confirm, but a wrong similarity can agree with several images a
+      // doubtful model misplaced together (on South Building, 3 of 6 alike).
+      if (SharedImagesConfirm(edge,
+                              options.min_num_shared_images_in_doubt,
+                              /*max_num_disagreeing=*/1)) {
         continue;
       }
       std::vector<std::pair<int, int>> other_edges;

@@ -43,13 +43,14 @@
 // has zero residuals whatever it is worth: if it joins a community in
 // doubt, it is kept only if the images both communities registered confirm
 // it, at least two of them placed alike by the two models under its
-// similarity and at most one not. On South Building, a community that broke into two
-// models had registered three of its neighbour's images 5 units off (extent
-// 11); its only link to that neighbour placed 3 of 6 shared images alike
-// (85 deg, 9.9 spreads apart) and merged the neighbour wrongly. Right links
-// on South Building, a generated loop and an open chain placed all their
-// shared images alike but for single borrowed images placed wrongly by one
-// model (there, the other links check the community). If the kept edges
+// similarity and at most one not. On South Building, a community that broke
+// into two models had registered three of its neighbour's images 5 units
+// off (extent 11); its only link to that neighbour placed 3 of 6 shared
+// images alike (85 deg, 9.9 spreads apart) and merged the neighbour
+// wrongly. Right links on South Building, a generated loop and an open
+// chain placed all their shared images alike but for single borrowed
+// images placed wrongly by one model (there, the other links check the
+// community). If the kept edges
 // no longer connect all communities, every connected part gets its own
 // frame, since a wrong merge is worse than two models.
 
