@@ -455,6 +455,41 @@ TEST(CommunityMapperComponents, EachComponentIsItsOwnModel) {
   EXPECT_NE(log.find("in 2 model(s)"), std::string::npos) << log;
 }
 
+// Where no similarity joins two communities (here: none has the support
+// asked for), the merged model still registers the other community's
+// images, as colmap mapper registers images into the model it grows: one
+// model of (nearly) all images, not one per community.
+TEST(CommunityMapperSeparateParts, ImagesOfAnUnjoinedPartJoinTheLargerModel) {
+  const std::string test_dir = CreateTestFolder();
+  const Scene scene = GenerateScene(
+      JoinPaths(test_dir, "scene"),
+      "--num_clusters 3 --num_images_per_cluster 30 --num_images_per_link 20 "
+      "--keypoint_noise 0.7 --seed 11");
+  const std::string output_path = JoinPaths(test_dir, "sparse");
+  std::string log;
+  ASSERT_EQ(RunMapper("community_mapper",
+                      scene,
+                      output_path,
+                      &log,
+                      "--CommunityMapper.pairwise_min_num_inliers 1000000"),
+            0)
+      << log;
+  const std::string summary =
+      ReadFile(JoinPaths(output_path, "summary.txt"));
+  ASSERT_NE(summary.find("num_kept_similarities 0\n"), std::string::npos)
+      << summary;
+  ASSERT_EQ(summary.find("num_communities 1\n"), std::string::npos)
+      << summary;
+  EXPECT_NE(log.find("of its images joined a larger model"), std::string::npos)
+      << log;
+  EXPECT_FALSE(ExistsDir(JoinPaths(output_path, "1"))) << summary;
+  const ModelEvaluation evaluation =
+      Evaluate(JoinPaths(output_path, "0"), scene.GroundTruthPath());
+  EXPECT_GE(evaluation.num_registered_images, 147) << summary;
+  EXPECT_LT(evaluation.median_position_error, 1e-3 * evaluation.extent);
+  EXPECT_LT(evaluation.p90_position_error, 2e-3 * evaluation.extent);
+}
+
 // Two landmarks with identical towers that no camera links: the only
 // cross-landmark pairs are 40 matched on the towers, which agree with the
 // transform that stacks one tower on the other. Folding them into one model

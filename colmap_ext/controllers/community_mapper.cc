@@ -762,6 +762,11 @@ bool CommunityMapperController::Merge() {
         "transforms: the refinement leaves them out.",
         static_cast<int>(false_pairs.size()));
   }
+  // Communities that left the merge but whose models are not broken: the
+  // images the merged models do not register keep their community's model,
+  // as a model of its own (the incremental mapper too writes the models it
+  // could not join).
+  Models set_aside_models(num_communities);
   for (int c = 0; c < num_communities; ++c) {
     if (averaging.excluded[c]) {
       bool unconfirmed = false;
@@ -782,6 +787,9 @@ bool CommunityMapperController::Merge() {
                                "communities' and its model is in doubt")
               : "its similarities disagree with the other communities' "
                 "and it is small");
+      if (!summary_.community_judgements[c].broken) {
+        set_aside_models[c] = std::move(models[c]);
+      }
       models[c].reset();
     }
   }
@@ -821,13 +829,83 @@ bool CommunityMapperController::Merge() {
           communities.name_of_image.at(image_id));
     }
   }
+  // A part that no similarity joins to a larger one it has view-graph edges
+  // to (no transform found, or its link not confirmed) is offered to the
+  // larger part it has the most edges to, as the incremental mapper would
+  // try to register its images into the model it grows: images that
+  // register there join it, and the part keeps only the others.
+  std::map<int, std::map<int, size_t>> num_edges_between_parts;
+  for (const auto& pair_and_edges : cross_edges) {
+    const int community1 = pair_and_edges.first.first;
+    const int community2 = pair_and_edges.first.second;
+    if (!models[community1] || !models[community2]) {
+      continue;
+    }
+    const int part1 = averaging.part_of_community[community1];
+    const int part2 = averaging.part_of_community[community2];
+    if (part1 != part2) {
+      num_edges_between_parts[std::max(part1, part2)][std::min(part1, part2)] +=
+          pair_and_edges.second.size();
+    }
+  }
+  for (const auto& part_and_counts : num_edges_between_parts) {
+    const auto& counts = part_and_counts.second;
+    const int larger_part = std::max_element(counts.begin(),
+                                             counts.end(),
+                                             [](const auto& a, const auto& b) {
+                                               return a.second < b.second;
+                                             })
+                                ->first;
+    for (int c = 0; c < num_communities; ++c) {
+      if (models[c] &&
+          averaging.part_of_community[c] == part_and_counts.first) {
+        for (const image_t image_id : communities.own_image_ids[c]) {
+          unmodelled_images_of_part[larger_part].insert(
+              communities.name_of_image.at(image_id));
+        }
+      }
+    }
+  }
+  // Images an earlier (larger) part's model registered.
+  std::unordered_set<image_t> registered_image_ids;
   double refinement_seconds = 0.0;
   std::vector<std::shared_ptr<Reconstruction>> merged_models;
   for (int part = 0; part < averaging.NumParts(); ++part) {
+    for (const auto& model : merged_models) {
+      const std::vector<image_t>& image_ids = model->RegImageIds();
+      registered_image_ids.insert(image_ids.begin(), image_ids.end());
+    }
     std::vector<int> part_communities;
     for (int c = 0; c < num_communities; ++c) {
-      if (averaging.part_of_community[c] == part && models[c]) {
-        part_communities.push_back(c);
+      if (averaging.part_of_community[c] != part || !models[c]) {
+        continue;
+      }
+      if (!registered_image_ids.empty()) {
+        std::unordered_set<image_t> left_image_ids;
+        for (const image_t image_id : models[c]->RegImageIds()) {
+          if (registered_image_ids.count(image_id) == 0) {
+            left_image_ids.insert(image_id);
+          }
+        }
+        if (left_image_ids.size() < models[c]->NumRegImages()) {
+          LOG(INFO) << StringPrintf(
+              "Community %d: %d of its images joined a larger model",
+              c,
+              static_cast<int>(models[c]->NumRegImages() -
+                               left_image_ids.size()));
+          models[c] = RestrictToImages(left_image_ids, models[c]);
+        }
+        if (models[c]->NumRegImages() < 2) {
+          models[c].reset();
+          continue;
+        }
+      }
+      part_communities.push_back(c);
+    }
+    for (const image_t image_id : registered_image_ids) {
+      const auto it = communities.name_of_image.find(image_id);
+      if (it != communities.name_of_image.end()) {
+        unmodelled_images_of_part[part].erase(it->second);
       }
     }
     if (part_communities.empty()) {
@@ -870,11 +948,44 @@ bool CommunityMapperController::Merge() {
       for (const int c : part_communities) {
         auto model = std::make_shared<Reconstruction>();
         model->Read(workspace_.CommunityModelPath(c));
-        model = RestrictToImages(communities.own_image_ids[c], model);
+        std::unordered_set<image_t> left_image_ids;
+        for (const image_t image_id : communities.own_image_ids[c]) {
+          if (registered_image_ids.count(image_id) == 0) {
+            left_image_ids.insert(image_id);
+          }
+        }
+        model = RestrictToImages(left_image_ids, model);
         if (model->NumRegImages() >= 2) {
           merged_models.push_back(std::move(model));
         }
       }
+    }
+  }
+
+  for (const auto& model : merged_models) {
+    const std::vector<image_t>& image_ids = model->RegImageIds();
+    registered_image_ids.insert(image_ids.begin(), image_ids.end());
+  }
+  for (int c = 0; c < num_communities; ++c) {
+    if (!set_aside_models[c]) {
+      continue;
+    }
+    std::unordered_set<image_t> left_image_ids;
+    for (const image_t image_id : communities.own_image_ids[c]) {
+      if (registered_image_ids.count(image_id) == 0) {
+        left_image_ids.insert(image_id);
+      }
+    }
+    std::shared_ptr<Reconstruction> model =
+        RestrictToImages(left_image_ids, std::move(set_aside_models[c]));
+    if (static_cast<int>(model->NumRegImages()) >=
+        options_.incremental_options.min_model_size) {
+      LOG(INFO) << StringPrintf(
+          "Community %d left the merge: %d of its images that no merged model "
+          "registered keep its model, as a model of its own",
+          c,
+          static_cast<int>(model->NumRegImages()));
+      merged_models.push_back(std::move(model));
     }
   }
 

@@ -629,11 +629,16 @@ void ParseCommand(int argc,
       &mapper_options.pairwise_similarity.max_shared_image_relative_distance,
       "... and this distance, relative to the spread of the co-visible "
       "points");
-  add("min_num_shared_images_in_doubt",
-      &mapper_options.similarity_averaging.min_num_shared_images_in_doubt,
-      "a similarity of a community in doubt that lies on no cycle of kept "
-      "similarities is dropped unless at least this many shared images are "
-      "placed alike, and at most one is not");
+  add("min_num_shared_images_on_bridge",
+      &mapper_options.similarity_averaging.min_num_shared_images_on_bridge,
+      "a similarity on no cycle of kept similarities is dropped unless at "
+      "least this many shared images are placed alike (between communities "
+      "not in doubt, full_support_num_inliers inliers stand in for them) and "
+      "at most one is not");
+  add("full_support_num_inliers",
+      &mapper_options.similarity_averaging.full_support_num_inliers,
+      "a similarity with fewer inliers weighs proportionally less in the "
+      "averaging, and needs shared images to confirm it on a bridge");
   add("spread_cycle_drift",
       &mapper_options.similarity_averaging.spread_cycle_drift,
       "where a cycle of similarities does not close under L1 averaging but "

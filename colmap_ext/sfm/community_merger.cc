@@ -465,7 +465,16 @@ MergedModelRefinementSummary RefineMergedModel(
   auto mapper = std::make_unique<IncrementalMapper>(load_correspondences());
   mapper->BeginReconstruction(reconstruction);
 
-  if (options.register_remaining_images) {
+  // Images that no community registered (those of communities without a
+  // model, or left out by their community's mapper) are registered as the
+  // incremental mapper does, and again once the model has changed: after
+  // the triangulation anew and after every adjustment, as more points and
+  // better poses can admit images that failed before.
+  bool first_registration = true;
+  const auto register_remaining_images = [&]() {
+    if (!options.register_remaining_images) {
+      return;
+    }
     timer.Restart();
     const size_t num_reg_images_before = reconstruction->NumRegImages();
     while (true) {
@@ -480,13 +489,18 @@ MergedModelRefinementSummary RefineMergedModel(
         break;
       }
     }
-    summary.num_newly_registered_images = static_cast<int>(
-        reconstruction->NumRegImages() - num_reg_images_before);
-    LOG(INFO) << StringPrintf(
-        "Registered %d images that no community had registered (%.1fs)",
-        summary.num_newly_registered_images,
-        timer.ElapsedSeconds());
-  }
+    const size_t num_registered =
+        reconstruction->NumRegImages() - num_reg_images_before;
+    summary.num_newly_registered_images += static_cast<int>(num_registered);
+    if (num_registered > 0 || first_registration) {
+      LOG(INFO) << StringPrintf(
+          "Registered %d images that no community had registered (%.1fs)",
+          static_cast<int>(num_registered),
+          timer.ElapsedSeconds());
+    }
+    first_registration = false;
+  };
+  register_remaining_images();
 
   // 2. With the cameras in place, all points are triangulated anew over the
   // whole correspondence graph, as the incremental mapper builds its tracks
@@ -522,6 +536,7 @@ MergedModelRefinementSummary RefineMergedModel(
       static_cast<int>(num_filtered),
       timer.ElapsedSeconds(),
       ProcessMemoryToString(ReadProcessMemory()).c_str());
+  register_remaining_images();
 
   // 3. As the incremental mapper's global refinement: least squares bundle
   // adjustment alternating with filtering and track completion until few
@@ -558,6 +573,7 @@ MergedModelRefinementSummary RefineMergedModel(
       mapper = std::make_unique<IncrementalMapper>(load_correspondences());
       mapper->BeginReconstruction(reconstruction);
     }
+    register_remaining_images();
     // Pairs the first triangulation left under-reconstructed (a border
     // still a little apart) are triangulated again with the adjusted poses,
     // once (the triangulator tries a pair once: a mapper loaded anew would

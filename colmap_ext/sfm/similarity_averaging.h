@@ -40,17 +40,19 @@
 // that drifts or broke inside itself cannot be aligned to all its
 // neighbours by one similarity, and keeping it by its last edge would bend
 // the merged model. An edge that lies on no cycle of kept edges (a bridge)
-// has zero residuals whatever it is worth: if it joins a community in
-// doubt, it is kept only if the images both communities registered confirm
-// it, at least two of them placed alike by the two models under its
-// similarity and at most one not. On South Building, a community that broke
-// into two models had registered three of its neighbour's images 5 units
-// off (extent 11); its only link to that neighbour placed 3 of 6 shared
-// images alike (85 deg, 9.9 spreads apart) and merged the neighbour
-// wrongly. Right links on South Building, a generated loop and an open
-// chain placed all their shared images alike but for single borrowed
-// images placed wrongly by one model (there, the other links check the
-// community). If the kept edges
+// has zero residuals whatever it is worth: it is kept only if the images
+// both communities registered confirm it, at most one of them placed
+// elsewhere by the two models under its similarity and at least two alike
+// (between two communities not in doubt, full support, i.e. many inliers,
+// stands in for the latter). On
+// South Building, a community that broke into two models had registered
+// three of its neighbour's images 5 units off (extent 11); its only link to
+// that neighbour placed 3 of 6 shared images alike (85 deg, 9.9 spreads
+// apart) and merged the neighbour wrongly. With 40% of the photographs left
+// out, two sound communities were joined only by wrong matches (25
+// inliers, no shared image). Right links on South Building, generated loops
+// and open chains placed all their shared images alike but for single
+// borrowed images placed wrongly by one model. If the kept edges
 // no longer connect all communities, every connected part gets its own
 // frame, since a wrong merge is worse than two models.
 
@@ -149,7 +151,8 @@ struct SimilarityAveragingOptions {
   double doubtful_weight = 0.1;
 
   // An edge with fewer inliers than this counts with its weaker
-  // community's weight times num_inliers / full_support_num_inliers.
+  // community's weight times num_inliers / full_support_num_inliers (and a
+  // bridge needs its shared images to confirm it, see below).
   double full_support_num_inliers = 100;
 
   // The weaker community of a rejected edge leaves the merge if its model is
@@ -157,11 +160,12 @@ struct SimilarityAveragingOptions {
   // median community's.
   double min_relative_size = 0.5;
 
-  // An edge of a community in doubt that lies on no cycle of kept edges is
-  // dropped unless at least this many of the images both communities
-  // registered are placed alike by the two models under its similarity, and
+  // An edge that lies on no cycle of kept edges (a bridge) is dropped unless
+  // at least this many of the images both communities registered are placed
+  // alike by the two models under its similarity (between two communities
+  // not in doubt, `full_support_num_inliers` inliers stand in for them), and
   // at most one is not.
-  int min_num_shared_images_in_doubt = 2;
+  int min_num_shared_images_on_bridge = 2;
 
   bool Check() const;
 };

@@ -52,10 +52,11 @@ struct Noise {
 
 // Communities on a ring, each joined to its next three, plus random chords.
 // Each edge has 40 world points (within 10 units of the communities' pair
-// midpoint) seen in both communities' frames. A fraction of the edges, at
-// random but at most a third of any community's edges (L1 needs a majority
-// of right edges around every community), get a random similarity, their
-// points moved consistently with it.
+// midpoint) seen in both communities' frames, and reports full support (100
+// inliers: a bridge needs no shared images to confirm it). A fraction of the
+// edges, at random but at most a third of any community's edges (L1 needs a
+// majority of right edges around every community), get a random similarity,
+// their points moved consistently with it.
 Problem MakeProblem(const int num_communities,
                     const int num_chords,
                     const Noise& noise,
@@ -115,7 +116,7 @@ Problem MakeProblem(const int num_communities,
     RelativeSimilarity edge;
     edge.community1 = pair.first;
     edge.community2 = pair.second;
-    edge.num_inliers = 40;
+    edge.num_inliers = 100;
     const bool outlier = is_outlier[e];
     const Eigen::Vector3d center =
         0.5 * (world_from_1.translation + world_from_2.translation);
@@ -482,12 +483,20 @@ TEST(AverageSimilarities, DoubtfulCommunityNeedsItsSharedImagesOnABridge) {
   EXPECT_EQ(result.NumParts(), 2);
   path[edge12].num_agreeing_shared_images = 3;
 
-  // Without doubt, the same edge stays: a single borrowed image placed
-  // wrongly by a sound model does not cut the merge.
+  // Without doubt the same holds: 3 of 6 placed elsewhere cut the edge,
+  // even with full support; a single borrowed image placed wrongly by a
+  // sound model does not.
   communities[1].doubtful = false;
+  path[edge12].num_inliers = 500;
+  EXPECT_EQ(AverageSimilarities(communities, path, SimilarityAveragingOptions())
+                .NumParts(),
+            2);
+  path[edge12].num_agreeing_shared_images = 5;
   EXPECT_EQ(AverageSimilarities(communities, path, SimilarityAveragingOptions())
                 .NumParts(),
             1);
+  path[edge12].num_agreeing_shared_images = 3;
+  path[edge12].num_inliers = 40;
 
   // In doubt with both edges unconfirmed (too few shared images): it
   // leaves the merge.
@@ -506,6 +515,59 @@ TEST(AverageSimilarities, DoubtfulCommunityNeedsItsSharedImagesOnABridge) {
   result =
       AverageSimilarities(communities, cycle, SimilarityAveragingOptions());
   EXPECT_EQ(result.NumParts(), 1);
+}
+
+TEST(AverageSimilarities, BridgeWithoutSharedImagesNeedsFullSupport) {
+  // A path 0 - 1 - 2 of sound communities; the edge 1-2 has no shared image
+  // (its borrowed images were not registered), as a link made only of wrong
+  // matches between similar facades had on a subset of South Building.
+  Problem problem = MakeCycle({150, 120, 110}, 29);
+  std::vector<RelativeSimilarity> path;
+  for (const RelativeSimilarity& edge : problem.edges) {
+    if (std::abs(edge.community1 - edge.community2) == 1) {
+      path.push_back(edge);
+      path.back().num_shared_images = 6;
+      path.back().num_agreeing_shared_images = 6;
+    }
+  }
+  ASSERT_EQ(path.size(), 2);
+  const int edge12 =
+      std::max(path[0].community1, path[0].community2) == 2 ? 0 : 1;
+  path[edge12].num_shared_images = 0;
+  path[edge12].num_agreeing_shared_images = 0;
+  std::vector<AveragedCommunity> communities = problem.Communities();
+  const SimilarityAveragingOptions options;
+
+  // 25 inliers: nothing confirms it, two models rather than a wrong one.
+  path[edge12].num_inliers = 25;
+  SimilarityAveragingResult result =
+      AverageSimilarities(communities, path, options);
+  EXPECT_FALSE(result.edges[edge12].kept);
+  EXPECT_TRUE(result.edges[edge12].unconfirmed);
+  EXPECT_TRUE(result.edges[1 - edge12].kept);
+  EXPECT_EQ(result.NumParts(), 2);
+  EXPECT_NE(result.part_of_community[2], result.part_of_community[1]);
+  EXPECT_EQ(result.excluded, (std::vector<bool>{false, false, false}));
+
+  // Full support between sound models stands in for the shared images.
+  path[edge12].num_inliers = options.full_support_num_inliers;
+  result = AverageSimilarities(communities, path, options);
+  EXPECT_TRUE(result.edges[edge12].kept);
+  EXPECT_EQ(result.NumParts(), 1);
+
+  // Not for a model in doubt: that edge goes, and so does the community.
+  communities[2].doubtful = true;
+  result = AverageSimilarities(communities, path, options);
+  EXPECT_FALSE(result.edges[edge12].kept);
+  EXPECT_EQ(result.excluded, (std::vector<bool>{false, false, true}));
+
+  // On a cycle, the residuals check it instead.
+  communities[2].doubtful = false;
+  std::vector<RelativeSimilarity> cycle = problem.edges;
+  for (RelativeSimilarity& edge : cycle) {
+    edge.num_inliers = 25;
+  }
+  EXPECT_EQ(AverageSimilarities(communities, cycle, options).NumParts(), 1);
 }
 
 TEST(AverageSimilarities, WeaklySupportedEdgeTakesUpTheDisagreement) {
