@@ -632,9 +632,10 @@ void ParseCommand(int argc,
   add("min_num_shared_images_on_bridge",
       &mapper_options.similarity_averaging.min_num_shared_images_on_bridge,
       "a similarity on no cycle of kept similarities is dropped unless at "
-      "least this many shared images are placed alike (between communities "
-      "not in doubt, full_support_num_inliers inliers stand in for them) and "
-      "at most one is not");
+      "least this many shared images are placed alike and at most one is "
+      "not (between communities not in doubt, full_support_num_inliers "
+      "inliers stand in for the former, and fewer off than alike are "
+      "allowed)");
   add("full_support_num_inliers",
       &mapper_options.similarity_averaging.full_support_num_inliers,
       "a similarity with fewer inliers weighs proportionally less in the "

@@ -41,11 +41,11 @@
 // neighbours by one similarity, and keeping it by its last edge would bend
 // the merged model. An edge that lies on no cycle of kept edges (a bridge)
 // has zero residuals whatever it is worth: it is kept only if the images
-// both communities registered confirm it, at most one of them placed
-// elsewhere by the two models under its similarity and at least two alike
-// (between two communities not in doubt, full support, i.e. many inliers,
-// stands in for the latter). On
-// South Building, a community that broke into two models had registered
+// both communities registered confirm it, at least two of them placed alike
+// by the two models under its similarity and at most one not. Between two
+// communities not in doubt, full support (many inliers) stands in for the
+// images placed alike, and fewer placed elsewhere than alike do not veto
+// it. On South Building, a community that broke into two models had registered
 // three of its neighbour's images 5 units off (extent 11); its only link to
 // that neighbour placed 3 of 6 shared images alike (85 deg, 9.9 spreads
 // apart) and merged the neighbour wrongly. With 40% of the photographs left
@@ -162,9 +162,10 @@ struct SimilarityAveragingOptions {
 
   // An edge that lies on no cycle of kept edges (a bridge) is dropped unless
   // at least this many of the images both communities registered are placed
-  // alike by the two models under its similarity (between two communities
-  // not in doubt, `full_support_num_inliers` inliers stand in for them), and
-  // at most one is not.
+  // alike by the two models under its similarity and at most one is not
+  // (between two communities not in doubt, `full_support_num_inliers`
+  // inliers stand in for the former, and fewer placed elsewhere than alike
+  // are allowed).
   int min_num_shared_images_on_bridge = 2;
 
   bool Check() const;
