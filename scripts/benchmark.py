@@ -28,6 +28,12 @@ Scenes (default: small medium):
     southbuilding          the CSfM paper's "Building" set, 128 photographs
                            (reference cameras of a full-resolution COLMAP
                            reconstruction)
+  South Building with part of its photographs left out at random (the
+  cached database with the other images deleted; scenes nobody tuned for:
+  weaker loops, communities joined by few or wrong matches):
+    sbF_S                  a fraction F% of the photographs kept, chosen
+                           with seed S, e.g. sb60_2; the group `sb_subsets`
+                           runs ten of them (50-75%)
   `generated` and `real` stand for all scenes of the kind, `issue11` for
   courtyard chain dense castle herzjesu southbuilding.
 
@@ -54,8 +60,10 @@ not run are n/a.
 import argparse
 import csv
 import os
+import random
 import re
 import shutil
+import sqlite3
 import statistics
 import subprocess
 import sys
@@ -110,11 +118,19 @@ REAL = {
     "southbuilding": dict(path="south-building", camera_model="SIMPLE_RADIAL",
                           max_num_features=4096),
 }
+# South Building subsets (see the docstring): name -> (fraction kept, seed).
+SUBSETS = {f"sb{round(100 * fraction)}_{seed}": (fraction, seed)
+           for fraction, seed in [(0.5, 4), (0.5, 5), (0.6, 1), (0.6, 2),
+                                  (0.6, 6), (0.6, 7), (0.6, 8), (0.7, 9),
+                                  (0.7, 10), (0.75, 3)]}
+SUBSET_PATTERN = re.compile(r"^sb(\d+)_(\d+)$")
+
 GROUPS = {
     "generated": ["small", "medium", "courtyard", "chain", "dense"],
     "real": list(REAL),
     "issue11": ["courtyard", "chain", "dense", "castle", "herzjesu",
                 "southbuilding"],
+    "sb_subsets": list(SUBSETS),
 }
 
 METHODS = ["mapper", "community", "hierarchical", "hier_fair"]
@@ -299,8 +315,49 @@ def prepare_real_scene(name, out_dir):
             knobs)
 
 
+def prepare_subset_scene(name, out_dir):
+    """South Building's cached database with the images of a random subset
+    only (their keypoints, matches and verified pairs; the others deleted);
+    returns what generate_scene returns."""
+    match = SUBSET_PATTERN.match(name)
+    fraction, seed = int(match.group(1)) / 100, int(match.group(2))
+    database, images, ground_truth, _, knobs = prepare_real_scene(
+        "southbuilding", out_dir)
+    cache = os.path.join(out_dir, "cache", name)
+    subset = os.path.join(cache, "database.db")
+    shutil.rmtree(cache, ignore_errors=True)
+    os.makedirs(cache)
+    shutil.copy(database, subset)
+    connection = sqlite3.connect(subset)
+    rows = connection.execute(
+        "SELECT image_id, name FROM images ORDER BY name").fetchall()
+    rng = random.Random(seed)
+    dropped = {image_id for image_id, _ in rows if rng.random() > fraction}
+    max_image_id = 2147483647  # COLMAP's pair id: id1 * this + id2.
+    for table in ("matches", "two_view_geometries"):
+        pair_ids = [pair_id for (pair_id,) in
+                    connection.execute(f"SELECT pair_id FROM {table}")]
+        connection.executemany(
+            f"DELETE FROM {table} WHERE pair_id = ?",
+            [(pair_id,) for pair_id in pair_ids
+             if pair_id // max_image_id in dropped or
+             pair_id % max_image_id in dropped])
+    for table in ("keypoints", "descriptors", "images"):
+        connection.executemany(f"DELETE FROM {table} WHERE image_id = ?",
+                               [(image_id,) for image_id in dropped])
+    connection.commit()
+    connection.close()
+    knobs = dict(knobs, subset=f"{len(rows) - len(dropped)} of {len(rows)} "
+                 f"photographs (seed {seed})")
+    log(f"   {name}: kept {len(rows) - len(dropped)} of {len(rows)} images")
+    return (subset, images, ground_truth, len(rows) - len(dropped), knobs)
+
+
 def run_scene(name, out_dir, threads, methods):
-    if name in REAL:
+    if SUBSET_PATTERN.match(name):
+        database, images, ground_truth, num_images, knobs = \
+            prepare_subset_scene(name, out_dir)
+    elif name in REAL:
         database, images, ground_truth, num_images, knobs = \
             prepare_real_scene(name, out_dir)
     else:
@@ -619,12 +676,15 @@ def main():
     for scene in (["quick"] if arguments.quick else
                   (arguments.scenes or default_scenes)):
         for member in GROUPS.get(scene, [scene]):
-            if member not in SCENES and member not in REAL:
+            if (member not in SCENES and member not in REAL and
+                    not SUBSET_PATTERN.match(member)):
                 parser.error(f"unknown scene {member}")
-            if member in REAL and not os.path.isdir(
-                    os.path.join(SHARED_DATA, REAL[member]["path"])):
+            photos = "southbuilding" if SUBSET_PATTERN.match(member) \
+                else member
+            if photos in REAL and not os.path.isdir(
+                    os.path.join(SHARED_DATA, REAL[photos]["path"])):
                 log(f"== Scene {member}: skipped, "
-                    f"{os.path.join(SHARED_DATA, REAL[member]['path'])} is "
+                    f"{os.path.join(SHARED_DATA, REAL[photos]['path'])} is "
                     f"absent")
                 continue
             if member not in scenes:
