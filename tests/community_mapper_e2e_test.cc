@@ -421,9 +421,8 @@ TEST(CommunityMapperReloadCorrespondences, SameModelAsHoldingThem) {
   EXPECT_NEAR(reloaded.median_position_error,
               held.median_position_error,
               0.05 * held.median_position_error);
-  EXPECT_NEAR(reloaded.mean_reprojection_error,
-              held.mean_reprojection_error,
-              0.01);
+  EXPECT_NEAR(
+      reloaded.mean_reprojection_error, held.mean_reprojection_error, 0.01);
 }
 
 // Two landmarks that no camera links: two view-graph components, so two
@@ -474,13 +473,12 @@ TEST(CommunityMapperSeparateParts, ImagesOfAnUnjoinedPartJoinTheLargerModel) {
                       "--CommunityMapper.pairwise_min_num_inliers 1000000"),
             0)
       << log;
-  const std::string summary =
-      ReadFile(JoinPaths(output_path, "summary.txt"));
+  const std::string summary = ReadFile(JoinPaths(output_path, "summary.txt"));
   ASSERT_NE(summary.find("num_kept_similarities 0\n"), std::string::npos)
       << summary;
-  ASSERT_EQ(summary.find("num_communities 1\n"), std::string::npos)
-      << summary;
-  EXPECT_NE(log.find("of its images joined a larger model"), std::string::npos)
+  ASSERT_EQ(summary.find("num_communities 1\n"), std::string::npos) << summary;
+  EXPECT_NE(log.find("its images are offered to part 0's refinement"),
+            std::string::npos)
       << log;
   EXPECT_FALSE(ExistsDir(JoinPaths(output_path, "1"))) << summary;
   const ModelEvaluation evaluation =
@@ -488,6 +486,52 @@ TEST(CommunityMapperSeparateParts, ImagesOfAnUnjoinedPartJoinTheLargerModel) {
   EXPECT_GE(evaluation.num_registered_images, 147) << summary;
   EXPECT_LT(evaluation.median_position_error, 1e-3 * evaluation.extent);
   EXPECT_LT(evaluation.p90_position_error, 2e-3 * evaluation.extent);
+}
+
+// A community that leaves the merge (here: every link rejected, every
+// community counted small) keeps the images that no merged model registered
+// (here: none is tried) as a model of its own, as colmap mapper writes the
+// models it cannot join: every image in exactly one model.
+TEST(CommunityMapperLeftCommunities, KeepTheirImagesAsModelsOfTheirOwn) {
+  const std::string test_dir = CreateTestFolder();
+  const Scene scene = GenerateScene(
+      JoinPaths(test_dir, "scene"),
+      "--num_clusters 3 --num_images_per_cluster 30 --num_images_per_link 20 "
+      "--keypoint_noise 0.7 --seed 11");
+  const std::string output_path = JoinPaths(test_dir, "sparse");
+  std::string log;
+  ASSERT_EQ(RunMapper("community_mapper",
+                      scene,
+                      output_path,
+                      &log,
+                      "--CommunityMapper.max_rotation_residual_deg 1e-9 "
+                      "--CommunityMapper.min_relative_size 10 "
+                      "--CommunityMapper.register_remaining_images 0"),
+            0)
+      << log;
+  EXPECT_NE(log.find("keep its model, as a model of its own"),
+            std::string::npos)
+      << log;
+  std::set<std::string> names;
+  size_t num_registered = 0;
+  int num_models = 0;
+  for (; ExistsDir(JoinPaths(output_path, std::to_string(num_models)));
+       ++num_models) {
+    const std::string model_path =
+        JoinPaths(output_path, std::to_string(num_models));
+    Reconstruction model;
+    model.Read(model_path);
+    for (const image_t image_id : model.RegImageIds()) {
+      EXPECT_TRUE(names.insert(model.Image(image_id).Name()).second)
+          << model.Image(image_id).Name() << " is in two models";
+    }
+    num_registered += model.NumRegImages();
+    const ModelEvaluation evaluation =
+        Evaluate(model_path, scene.GroundTruthPath());
+    EXPECT_LT(evaluation.median_position_error, 1e-3 * evaluation.extent);
+  }
+  EXPECT_GE(num_models, 2);
+  EXPECT_GE(num_registered, 147);
 }
 
 // Two landmarks with identical towers that no camera links: the only

@@ -90,12 +90,37 @@ CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
   return groups;
 }
 
+// The images of `image_ids` that are not in `taken_image_ids`.
+template <typename ImageIds>
+std::unordered_set<image_t> ImagesNotTaken(
+    const ImageIds& image_ids,
+    const std::unordered_set<image_t>& taken_image_ids) {
+  std::unordered_set<image_t> left_image_ids;
+  for (const image_t image_id : image_ids) {
+    if (taken_image_ids.count(image_id) == 0) {
+      left_image_ids.insert(image_id);
+    }
+  }
+  return left_image_ids;
+}
+
+// The key with the largest count (the first of equal ones).
+int MostCounted(const std::map<int, size_t>& counts) {
+  return std::max_element(
+             counts.begin(),
+             counts.end(),
+             [](const auto& a, const auto& b) { return a.second < b.second; })
+      ->first;
+}
+
 // Joins the communities of one part (connected by kept similarities) into
 // one model in the global frame, merges their corresponding points and
-// refines the result on the part's images plus `extra_image_names` (images
-// of communities that could not be reconstructed, which the refinement
-// tries to register). The communities' own models are consumed. Adds the
-// seconds spent in the refinement to `refinement_seconds`.
+// refines the result on the part's own images plus `extra_image_names`
+// (images of communities without a model or that left the merge, and of
+// parts offered to this one, which the refinement tries to register). Own
+// images in `taken_image_ids` (registered by an earlier part's model) are
+// left out. The communities' own models are consumed. Adds the seconds
+// spent in the refinement to `refinement_seconds`.
 std::shared_ptr<Reconstruction> MergePart(
     const CommunityMapperController::Options& options,
     const std::vector<int>& part_communities,
@@ -103,6 +128,7 @@ std::shared_ptr<Reconstruction> MergePart(
     const std::vector<RelativeSimilarity>& similarities,
     const SimilarityAveragingResult& averaging,
     const std::unordered_set<std::string>& extra_image_names,
+    const std::unordered_set<image_t>& taken_image_ids,
     const std::unordered_set<image_pair_t>& false_pairs,
     const ViewGraph& view_graph,
     Models* models,
@@ -125,8 +151,9 @@ std::shared_ptr<Reconstruction> MergePart(
     index_in_part.emplace(c, part_models.size());
     part_models.push_back((*models)[c].get());
     world_from_community.push_back(averaging.world_from_community[c]);
-    owned_image_ids.push_back(communities.own_image_ids[c]);
-    for (const image_t image_id : communities.own_image_ids[c]) {
+    owned_image_ids.push_back(
+        ImagesNotTaken(communities.own_image_ids[c], taken_image_ids));
+    for (const image_t image_id : owned_image_ids.back()) {
       part_image_names.insert(communities.name_of_image.at(image_id));
     }
   }
@@ -765,8 +792,8 @@ bool CommunityMapperController::Merge() {
   // Communities that left the merge but whose models are not broken: the
   // images the merged models do not register keep their community's model,
   // as a model of its own (the incremental mapper too writes the models it
-  // could not join).
-  Models set_aside_models(num_communities);
+  // could not join). Read again from the workspace at the end.
+  std::vector<int> set_aside_communities;
   for (int c = 0; c < num_communities; ++c) {
     if (averaging.excluded[c]) {
       bool unconfirmed = false;
@@ -788,7 +815,7 @@ bool CommunityMapperController::Merge() {
               : "its similarities disagree with the other communities' "
                 "and it is small");
       if (!summary_.community_judgements[c].broken) {
-        set_aside_models[c] = std::move(models[c]);
+        set_aside_communities.push_back(c);
       }
       models[c].reset();
     }
@@ -816,24 +843,23 @@ bool CommunityMapperController::Merge() {
   }
   std::map<int, std::unordered_set<std::string>> unmodelled_images_of_part;
   for (const auto& community_and_counts : num_edges_to_part) {
-    const auto& counts = community_and_counts.second;
-    const int best_part = std::max_element(counts.begin(),
-                                           counts.end(),
-                                           [](const auto& a, const auto& b) {
-                                             return a.second < b.second;
-                                           })
-                              ->first;
+    const int best_part = MostCounted(community_and_counts.second);
     for (const image_t image_id :
          communities.own_image_ids[community_and_counts.first]) {
       unmodelled_images_of_part[best_part].insert(
           communities.name_of_image.at(image_id));
     }
   }
-  // A part that no similarity joins to a larger one it has view-graph edges
-  // to (no transform found, or its link not confirmed) is offered to the
-  // larger part it has the most edges to, as the incremental mapper would
-  // try to register its images into the model it grows: images that
-  // register there join it, and the part keeps only the others.
+  // A part that no similarity joins to an earlier one (larger, or as large)
+  // it has view-graph edges to is offered to the earlier part it has the
+  // most edges to, as the incremental mapper would try to register its
+  // images into the model it grows: whether no transform was found or the
+  // link was dropped, the refinement registers them through their verified
+  // pairs (but those of rejected transforms) with the checks of
+  // IncrementalMapper::RegisterNextImage. Images that register there join
+  // that model; the part keeps only the others. A part offered to one that
+  // is itself offered further is offered there too (its images may join
+  // through the images that join).
   std::map<int, std::map<int, size_t>> num_edges_between_parts;
   for (const auto& pair_and_edges : cross_edges) {
     const int community1 = pair_and_edges.first.first;
@@ -848,59 +874,65 @@ bool CommunityMapperController::Merge() {
           pair_and_edges.second.size();
     }
   }
+  std::map<int, int> offered_to_part;
   for (const auto& part_and_counts : num_edges_between_parts) {
-    const auto& counts = part_and_counts.second;
-    const int larger_part = std::max_element(counts.begin(),
-                                             counts.end(),
-                                             [](const auto& a, const auto& b) {
-                                               return a.second < b.second;
-                                             })
-                                ->first;
-    for (int c = 0; c < num_communities; ++c) {
-      if (models[c] &&
-          averaging.part_of_community[c] == part_and_counts.first) {
-        for (const image_t image_id : communities.own_image_ids[c]) {
-          unmodelled_images_of_part[larger_part].insert(
-              communities.name_of_image.at(image_id));
+    offered_to_part[part_and_counts.first] =
+        MostCounted(part_and_counts.second);
+  }
+  for (const auto& part_and_target : offered_to_part) {
+    const int part = part_and_target.first;
+    LOG(INFO) << StringPrintf(
+        "No similarity joins part %d to an earlier part: its images are "
+        "offered to part %d's refinement",
+        part,
+        part_and_target.second);
+    for (auto target = offered_to_part.find(part);
+         target != offered_to_part.end();
+         target = offered_to_part.find(target->second)) {
+      for (int c = 0; c < num_communities; ++c) {
+        if (models[c] && averaging.part_of_community[c] == part) {
+          for (const image_t image_id : communities.own_image_ids[c]) {
+            unmodelled_images_of_part[target->second].insert(
+                communities.name_of_image.at(image_id));
+          }
         }
       }
     }
   }
-  // Images an earlier (larger) part's model registered.
+  // Images an earlier part's model registered.
   std::unordered_set<image_t> registered_image_ids;
+  const auto add_registered_images = [&](const Reconstruction& model) {
+    registered_image_ids.insert(model.RegImageIds().begin(),
+                                model.RegImageIds().end());
+  };
   double refinement_seconds = 0.0;
   std::vector<std::shared_ptr<Reconstruction>> merged_models;
   for (int part = 0; part < averaging.NumParts(); ++part) {
-    for (const auto& model : merged_models) {
-      const std::vector<image_t>& image_ids = model->RegImageIds();
-      registered_image_ids.insert(image_ids.begin(), image_ids.end());
-    }
     std::vector<int> part_communities;
+    size_t num_left_images = 0;
     for (int c = 0; c < num_communities; ++c) {
       if (averaging.part_of_community[c] != part || !models[c]) {
         continue;
       }
-      if (!registered_image_ids.empty()) {
-        std::unordered_set<image_t> left_image_ids;
-        for (const image_t image_id : models[c]->RegImageIds()) {
-          if (registered_image_ids.count(image_id) == 0) {
-            left_image_ids.insert(image_id);
-          }
-        }
-        if (left_image_ids.size() < models[c]->NumRegImages()) {
-          LOG(INFO) << StringPrintf(
-              "Community %d: %d of its images joined a larger model",
-              c,
-              static_cast<int>(models[c]->NumRegImages() -
-                               left_image_ids.size()));
-          models[c] = RestrictToImages(left_image_ids, models[c]);
-        }
-        if (models[c]->NumRegImages() < 2) {
-          models[c].reset();
+      part_communities.push_back(c);
+      size_t num_taken = 0;
+      for (const image_t image_id : models[c]->RegImageIds()) {
+        if (communities.own_image_ids[c].count(image_id) == 0) {
           continue;
         }
+        if (registered_image_ids.count(image_id)) {
+          ++num_taken;
+        } else {
+          ++num_left_images;
+        }
       }
-      part_communities.push_back(c);
+      if (num_taken > 0) {
+        LOG(INFO) << StringPrintf(
+            "Community %d: %d of its own images are in an earlier part's "
+            "model already",
+            c,
+            static_cast<int>(num_taken));
+      }
     }
     for (const image_t image_id : registered_image_ids) {
       const auto it = communities.name_of_image.find(image_id);
@@ -911,13 +943,20 @@ bool CommunityMapperController::Merge() {
     if (part_communities.empty()) {
       continue;
     }
-    // A part of one community is taken as it is, unless images of
-    // communities without a model are offered to it.
+    if (num_left_images < 2 && unmodelled_images_of_part[part].empty()) {
+      for (const int c : part_communities) {
+        models[c].reset();
+      }
+      continue;
+    }
+    // A part of one community is taken as it is, unless images of other
+    // communities are offered to it.
     if (part_communities.size() == 1 &&
         unmodelled_images_of_part[part].empty()) {
       const int c = part_communities[0];
-      std::shared_ptr<Reconstruction> model =
-          RestrictToImages(communities.own_image_ids[c], models[c]);
+      std::shared_ptr<Reconstruction> model = RestrictToImages(
+          ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
+          models[c]);
       models[c].reset();
       if (model->NumRegImages() < 2) {
         LOG(WARNING) << StringPrintf(
@@ -926,6 +965,7 @@ bool CommunityMapperController::Merge() {
             c);
         continue;
       }
+      add_registered_images(*model);
       merged_models.push_back(std::move(model));
       continue;
     }
@@ -936,10 +976,12 @@ bool CommunityMapperController::Merge() {
                                         similarities,
                                         averaging,
                                         unmodelled_images_of_part[part],
+                                        registered_image_ids,
                                         false_pairs,
                                         view_graph,
                                         &models,
                                         &refinement_seconds));
+      add_registered_images(*merged_models.back());
     } catch (const std::exception& error) {
       // Nothing is lost: the part's communities, as their stage wrote them,
       // become models of their own.
@@ -948,36 +990,26 @@ bool CommunityMapperController::Merge() {
       for (const int c : part_communities) {
         auto model = std::make_shared<Reconstruction>();
         model->Read(workspace_.CommunityModelPath(c));
-        std::unordered_set<image_t> left_image_ids;
-        for (const image_t image_id : communities.own_image_ids[c]) {
-          if (registered_image_ids.count(image_id) == 0) {
-            left_image_ids.insert(image_id);
-          }
-        }
-        model = RestrictToImages(left_image_ids, model);
+        model = RestrictToImages(
+            ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
+            model);
         if (model->NumRegImages() >= 2) {
+          add_registered_images(*model);
           merged_models.push_back(std::move(model));
         }
       }
     }
   }
 
-  for (const auto& model : merged_models) {
-    const std::vector<image_t>& image_ids = model->RegImageIds();
-    registered_image_ids.insert(image_ids.begin(), image_ids.end());
-  }
-  for (int c = 0; c < num_communities; ++c) {
-    if (!set_aside_models[c]) {
-      continue;
-    }
-    std::unordered_set<image_t> left_image_ids;
-    for (const image_t image_id : communities.own_image_ids[c]) {
-      if (registered_image_ids.count(image_id) == 0) {
-        left_image_ids.insert(image_id);
-      }
-    }
-    std::shared_ptr<Reconstruction> model =
-        RestrictToImages(left_image_ids, std::move(set_aside_models[c]));
+  // A community that left the merge keeps the images nobody registered as
+  // a model of its own, if there are as many as the incremental mapper
+  // keeps in a model (Mapper.min_model_size): it was in doubt or small.
+  for (const int c : set_aside_communities) {
+    auto model = std::make_shared<Reconstruction>();
+    model->Read(workspace_.CommunityModelPath(c));
+    model = RestrictToImages(
+        ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
+        model);
     if (static_cast<int>(model->NumRegImages()) >=
         options_.incremental_options.min_model_size) {
       LOG(INFO) << StringPrintf(
@@ -985,6 +1017,7 @@ bool CommunityMapperController::Merge() {
           "registered keep its model, as a model of its own",
           c,
           static_cast<int>(model->NumRegImages()));
+      add_registered_images(*model);
       merged_models.push_back(std::move(model));
     }
   }

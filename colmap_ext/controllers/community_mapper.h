@@ -15,6 +15,13 @@
 // partition follows the view graph's own structure, the merge is global and
 // judges what it merges, and the merged model is bundle adjusted.
 //
+// Where the merge cannot join communities (no similarity found, or one it
+// does not trust), it still gives what the incremental mapper would: the
+// images of a part that no similarity joins to a larger one are offered to
+// the larger part's refinement, which registers those it can, and a
+// community that left the merge keeps the images nobody registered as a
+// model of its own; no image is written in two models.
+//
 // The work is done in three stages over files in the output folder
 // (community_workspace.h), each a method that another process, or a
 // cluster's job, can run alone: Partition(), ReconstructCommunity(K) for
@@ -197,7 +204,8 @@ class CommunityMapperController : public BaseController {
     double max_modularity = 0.0;
     // Per community: its own images, what its mapper produced, the verdict
     // on its model, and whether it left the merge (its images were then
-    // offered to the merged model).
+    // offered to the merged model, and those it did not register kept the
+    // community's model unless it was broken).
     std::vector<int> community_sizes;
     std::vector<CommunityModelReport> community_reports;
     std::vector<CommunityJudgement> community_judgements;

@@ -613,6 +613,11 @@ void ParseCommand(int argc,
       &mapper_options.similarity_averaging.max_rotation_residual_deg,
       "drop a pairwise similarity whose rotation residual after averaging "
       "exceeds this");
+  add("min_relative_size",
+      &mapper_options.similarity_averaging.min_relative_size,
+      "the weaker community of a rejected similarity leaves the merge if its "
+      "model is in doubt or it registered fewer images than this fraction "
+      "of the median community");
   add("max_log_scale_residual",
       &mapper_options.similarity_averaging.max_log_scale_residual,
       "drop a pairwise similarity whose log scale residual after averaging "

@@ -469,13 +469,15 @@ MergedModelRefinementSummary RefineMergedModel(
   // model, or left out by their community's mapper) are registered as the
   // incremental mapper does, and again once the model has changed: after
   // the triangulation anew and after every adjustment, as more points and
-  // better poses can admit images that failed before.
-  bool first_registration = true;
-  const auto register_remaining_images = [&]() {
+  // better poses can admit images that failed before (each image at most
+  // Mapper.max_reg_trials times per loading of the correspondences).
+  // Returns the number of images registered.
+  const auto register_remaining_images = [&](const bool log_none) {
     if (!options.register_remaining_images) {
-      return;
+      return size_t{0};
     }
-    timer.Restart();
+    Timer registration_timer;
+    registration_timer.Start();
     const size_t num_reg_images_before = reconstruction->NumRegImages();
     while (true) {
       bool registered = false;
@@ -492,15 +494,15 @@ MergedModelRefinementSummary RefineMergedModel(
     const size_t num_registered =
         reconstruction->NumRegImages() - num_reg_images_before;
     summary.num_newly_registered_images += static_cast<int>(num_registered);
-    if (num_registered > 0 || first_registration) {
+    if (num_registered > 0 || log_none) {
       LOG(INFO) << StringPrintf(
           "Registered %d images that no community had registered (%.1fs)",
           static_cast<int>(num_registered),
-          timer.ElapsedSeconds());
+          registration_timer.ElapsedSeconds());
     }
-    first_registration = false;
+    return num_registered;
   };
-  register_remaining_images();
+  register_remaining_images(/*log_none=*/true);
 
   // 2. With the cameras in place, all points are triangulated anew over the
   // whole correspondence graph, as the incremental mapper builds its tracks
@@ -536,7 +538,7 @@ MergedModelRefinementSummary RefineMergedModel(
       static_cast<int>(num_filtered),
       timer.ElapsedSeconds(),
       ProcessMemoryToString(ReadProcessMemory()).c_str());
-  register_remaining_images();
+  register_remaining_images(/*log_none=*/false);
 
   // 3. As the incremental mapper's global refinement: least squares bundle
   // adjustment alternating with filtering and track completion until few
@@ -573,7 +575,7 @@ MergedModelRefinementSummary RefineMergedModel(
       mapper = std::make_unique<IncrementalMapper>(load_correspondences());
       mapper->BeginReconstruction(reconstruction);
     }
-    register_remaining_images();
+    const size_t num_registered = register_remaining_images(/*log_none=*/false);
     // Pairs the first triangulation left under-reconstructed (a border
     // still a little apart) are triangulated again with the adjusted poses,
     // once (the triangulator tries a pair once: a mapper loaded anew would
@@ -593,7 +595,8 @@ MergedModelRefinementSummary RefineMergedModel(
         static_cast<int>(num_changed),
         changed,
         ProcessMemoryToString(ReadProcessMemory()).c_str());
-    if (changed < max_change) {
+    // Newly registered images are adjusted in one more round.
+    if (changed < max_change && num_registered == 0) {
       break;
     }
   }

@@ -67,7 +67,11 @@ std::shared_ptr<Reconstruction> RestrictToImages(
     std::shared_ptr<Reconstruction> reconstruction);
 
 struct MergedModelRefinementOptions {
-  // Try to register the images that no community registered.
+  // Try to register the images that no community registered: after the
+  // alignment, again after the triangulation anew and after every
+  // adjustment (each image at most Mapper.max_reg_trials times per loading
+  // of the correspondences); a round that registered images is followed by
+  // another.
   bool register_remaining_images = true;
 
   // The refinement has three steps. (1) Alignment, before the

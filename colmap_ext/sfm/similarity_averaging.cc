@@ -602,13 +602,11 @@ SimilarityAveragingResult AverageSimilarities(
                             communities[edge.community2].doubtful;
       const bool full_support =
           !in_doubt && edge.num_inliers >= options.full_support_num_inliers;
-      if (SharedImagesConfirm(
-              edge,
-              full_support ? 0 : options.min_num_shared_images_on_bridge,
-              /*max_num_disagreeing=*/
-                  in_doubt
-                  ? 1
-                  : std::max(1, edge.num_agreeing_shared_images - 1))) {
+      const int min_num_agreeing =
+          full_support ? 0 : options.min_num_shared_images_on_bridge;
+      const int max_num_disagreeing =
+          in_doubt ? 1 : std::max(1, edge.num_agreeing_shared_images - 1);
+      if (SharedImagesConfirm(edge, min_num_agreeing, max_num_disagreeing)) {
         continue;
       }
       std::vector<std::pair<int, int>> other_edges;

@@ -538,7 +538,20 @@ TEST(AverageSimilarities, BridgeWithoutSharedImagesNeedsFullSupport) {
   std::vector<AveragedCommunity> communities = problem.Communities();
   const SimilarityAveragingOptions options;
 
-  // 25 inliers: nothing confirms it, two models rather than a wrong one.
+  // 25 inliers, but 6 shared images placed alike, or 2 alike and 1 not:
+  // confirmed.
+  path[edge12].num_inliers = 25;
+  path[edge12].num_shared_images = 6;
+  path[edge12].num_agreeing_shared_images = 6;
+  EXPECT_EQ(AverageSimilarities(communities, path, options).NumParts(), 1);
+  path[edge12].num_shared_images = 3;
+  path[edge12].num_agreeing_shared_images = 2;
+  EXPECT_EQ(AverageSimilarities(communities, path, options).NumParts(), 1);
+  path[edge12].num_shared_images = 0;
+  path[edge12].num_agreeing_shared_images = 0;
+
+  // 25 inliers and no shared image: nothing confirms it, two models rather
+  // than a wrong one.
   path[edge12].num_inliers = 25;
   SimilarityAveragingResult result =
       AverageSimilarities(communities, path, options);
