@@ -454,25 +454,26 @@ TEST(CommunityMapperComponents, EachComponentIsItsOwnModel) {
   EXPECT_NE(log.find("in 2 model(s)"), std::string::npos) << log;
 }
 
+// Runs community_mapper on the suite's scene with `flags`, into a folder of
+// the current test; returns the output folder.
+std::string RunOnSuiteScene(const Scene& scene,
+                            const std::string& flags,
+                            std::string* log) {
+  const std::string output_path = JoinPaths(CreateTestFolder(), "sparse");
+  THROW_CHECK_EQ(RunMapper("community_mapper", scene, output_path, log, flags),
+                 0)
+      << *log;
+  return output_path;
+}
+
 // Where no similarity joins two communities (here: none has the support
 // asked for), the merged model still registers the other community's
 // images, as colmap mapper registers images into the model it grows: one
 // model of (nearly) all images, not one per community.
-TEST(CommunityMapperSeparateParts, ImagesOfAnUnjoinedPartJoinTheLargerModel) {
-  const std::string test_dir = CreateTestFolder();
-  const Scene scene = GenerateScene(
-      JoinPaths(test_dir, "scene"),
-      "--num_clusters 3 --num_images_per_cluster 30 --num_images_per_link 20 "
-      "--keypoint_noise 0.7 --seed 11");
-  const std::string output_path = JoinPaths(test_dir, "sparse");
+TEST_F(CommunityMapperEndToEnd, ImagesOfAnUnjoinedPartJoinTheLargerModel) {
   std::string log;
-  ASSERT_EQ(RunMapper("community_mapper",
-                      scene,
-                      output_path,
-                      &log,
-                      "--CommunityMapper.pairwise_min_num_inliers 1000000"),
-            0)
-      << log;
+  const std::string output_path = RunOnSuiteScene(
+      *scene_, "--CommunityMapper.pairwise_min_num_inliers 1000000", &log);
   const std::string summary = ReadFile(JoinPaths(output_path, "summary.txt"));
   ASSERT_NE(summary.find("num_kept_similarities 0\n"), std::string::npos)
       << summary;
@@ -482,7 +483,7 @@ TEST(CommunityMapperSeparateParts, ImagesOfAnUnjoinedPartJoinTheLargerModel) {
       << log;
   EXPECT_FALSE(ExistsDir(JoinPaths(output_path, "1"))) << summary;
   const ModelEvaluation evaluation =
-      Evaluate(JoinPaths(output_path, "0"), scene.GroundTruthPath());
+      Evaluate(JoinPaths(output_path, "0"), scene_->GroundTruthPath());
   EXPECT_GE(evaluation.num_registered_images, 147) << summary;
   EXPECT_LT(evaluation.median_position_error, 1e-3 * evaluation.extent);
   EXPECT_LT(evaluation.p90_position_error, 2e-3 * evaluation.extent);
@@ -492,23 +493,14 @@ TEST(CommunityMapperSeparateParts, ImagesOfAnUnjoinedPartJoinTheLargerModel) {
 // community counted small) keeps the images that no merged model registered
 // (here: none is tried) as a model of its own, as colmap mapper writes the
 // models it cannot join: every image in exactly one model.
-TEST(CommunityMapperLeftCommunities, KeepTheirImagesAsModelsOfTheirOwn) {
-  const std::string test_dir = CreateTestFolder();
-  const Scene scene = GenerateScene(
-      JoinPaths(test_dir, "scene"),
-      "--num_clusters 3 --num_images_per_cluster 30 --num_images_per_link 20 "
-      "--keypoint_noise 0.7 --seed 11");
-  const std::string output_path = JoinPaths(test_dir, "sparse");
+TEST_F(CommunityMapperEndToEnd, LeftCommunitiesKeepTheirImagesAsModels) {
   std::string log;
-  ASSERT_EQ(RunMapper("community_mapper",
-                      scene,
-                      output_path,
-                      &log,
+  const std::string output_path =
+      RunOnSuiteScene(*scene_,
                       "--CommunityMapper.max_rotation_residual_deg 1e-9 "
                       "--CommunityMapper.min_relative_size 10 "
-                      "--CommunityMapper.register_remaining_images 0"),
-            0)
-      << log;
+                      "--CommunityMapper.register_remaining_images 0",
+                      &log);
   EXPECT_NE(log.find("keep its model, as a model of its own"),
             std::string::npos)
       << log;
@@ -527,7 +519,7 @@ TEST(CommunityMapperLeftCommunities, KeepTheirImagesAsModelsOfTheirOwn) {
     }
     num_registered += model.NumRegImages();
     const ModelEvaluation evaluation =
-        Evaluate(model_path, scene.GroundTruthPath());
+        Evaluate(model_path, scene_->GroundTruthPath());
     EXPECT_LT(evaluation.median_position_error, 1e-3 * evaluation.extent);
   }
   EXPECT_GE(num_models, 2);

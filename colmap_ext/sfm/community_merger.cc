@@ -467,10 +467,16 @@ MergedModelRefinementSummary RefineMergedModel(
 
   // Images that no community registered (those of communities without a
   // model, or left out by their community's mapper) are registered as the
-  // incremental mapper does, and again once the model has changed: after
-  // the triangulation anew and after every adjustment, as more points and
-  // better poses can admit images that failed before (each image at most
-  // Mapper.max_reg_trials times per loading of the correspondences).
+  // incremental mapper does: one at a time, the best candidate first, each
+  // followed by a local bundle adjustment with filtering (Mapper.ba_local_*).
+  // Without those, a whole community registered through images that were
+  // registered before it, on a generated scene with 5% wrong matches, ended
+  // up to 60 m off (extent 154 m); with them, 0.037 m at the median, as
+  // colmap mapper (0.034). This is tried again once the model has
+  // changed: after the triangulation anew and after every adjustment, as
+  // more points and better poses can admit images that failed before (each
+  // image at most Mapper.max_reg_trials times per loading of the
+  // correspondences).
   // Returns the number of images registered.
   const auto register_remaining_images = [&](const bool log_none) {
     if (!options.register_remaining_images) {
@@ -484,7 +490,15 @@ MergedModelRefinementSummary RefineMergedModel(
       for (const image_t image_id : mapper->FindNextImages(incremental)) {
         if (mapper->RegisterNextImage(incremental, image_id)) {
           mapper->TriangulateImage(triangulation, image_id);
+          mapper->IterativeLocalRefinement(
+              mapper_options.ba_local_max_refinements,
+              mapper_options.ba_local_max_refinement_change,
+              incremental,
+              mapper_options.LocalBundleAdjustment(),
+              triangulation,
+              image_id);
           registered = true;
+          break;  // The next image is chosen with this one's points.
         }
       }
       if (!registered) {
