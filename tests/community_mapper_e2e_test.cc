@@ -13,6 +13,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <vector>
 
 #include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
@@ -74,6 +75,15 @@ std::string ReadFile(const std::string& path) {
   std::stringstream text;
   text << file.rdbuf();
   return text.str();
+}
+
+// The models a run wrote into `output_path` (0/, 1/, ...), in order.
+std::vector<std::string> ModelPaths(const std::string& output_path) {
+  std::vector<std::string> paths;
+  while (ExistsDir(JoinPaths(output_path, std::to_string(paths.size())))) {
+    paths.push_back(JoinPaths(output_path, std::to_string(paths.size())));
+  }
+  return paths;
 }
 
 ModelEvaluation Evaluate(const std::string& model_path,
@@ -506,11 +516,8 @@ TEST_F(CommunityMapperEndToEnd, LeftCommunitiesKeepTheirImagesAsModels) {
       << log;
   std::set<std::string> names;
   size_t num_registered = 0;
-  int num_models = 0;
-  for (; ExistsDir(JoinPaths(output_path, std::to_string(num_models)));
-       ++num_models) {
-    const std::string model_path =
-        JoinPaths(output_path, std::to_string(num_models));
+  const std::vector<std::string> model_paths = ModelPaths(output_path);
+  for (const std::string& model_path : model_paths) {
     Reconstruction model;
     model.Read(model_path);
     for (const image_t image_id : model.RegImageIds()) {
@@ -522,7 +529,7 @@ TEST_F(CommunityMapperEndToEnd, LeftCommunitiesKeepTheirImagesAsModels) {
         Evaluate(model_path, scene_->GroundTruthPath());
     EXPECT_LT(evaluation.median_position_error, 1e-3 * evaluation.extent);
   }
-  EXPECT_GE(num_models, 2);
+  EXPECT_GE(model_paths.size(), 2);
   EXPECT_GE(num_registered, 147);
 }
 
@@ -548,12 +555,9 @@ TEST(CommunityMapperRepeatedStructure, IdenticalTowersAreNotStacked) {
 
   const std::map<std::string, int> clusters =
       ReadClusters(JoinPaths(scene.path, "clusters.txt"));
-  int num_models = 0;
   int num_registered = 0;
-  for (; ExistsDir(JoinPaths(output_path, std::to_string(num_models)));
-       ++num_models) {
-    const std::string model_path =
-        JoinPaths(output_path, std::to_string(num_models));
+  const std::vector<std::string> model_paths = ModelPaths(output_path);
+  for (const std::string& model_path : model_paths) {
     Reconstruction model;
     model.Read(model_path);
     std::set<int> model_clusters;
@@ -567,7 +571,7 @@ TEST(CommunityMapperRepeatedStructure, IdenticalTowersAreNotStacked) {
     ASSERT_TRUE(evaluation.aligned);
     EXPECT_LT(evaluation.median_position_error, 0.001 * evaluation.extent);
   }
-  EXPECT_EQ(num_models, 2);
+  EXPECT_EQ(model_paths.size(), 2);
   EXPECT_GE(num_registered, 78);
 }
 

@@ -905,6 +905,15 @@ bool CommunityMapperController::Merge() {
     registered_image_ids.insert(model.RegImageIds().begin(),
                                 model.RegImageIds().end());
   };
+  // Community c's model as its stage wrote it, with its own images that no
+  // earlier model registered.
+  const auto read_left_model = [&](const int c) {
+    auto model = std::make_shared<Reconstruction>();
+    model->Read(workspace_.CommunityModelPath(c));
+    return RestrictToImages(
+        ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
+        model);
+  };
   double refinement_seconds = 0.0;
   std::vector<std::shared_ptr<Reconstruction>> merged_models;
   for (int part = 0; part < averaging.NumParts(); ++part) {
@@ -988,11 +997,7 @@ bool CommunityMapperController::Merge() {
       LOG(ERROR) << "Merging communities failed: " << error.what()
                  << "; each of them is written as a model of its own.";
       for (const int c : part_communities) {
-        auto model = std::make_shared<Reconstruction>();
-        model->Read(workspace_.CommunityModelPath(c));
-        model = RestrictToImages(
-            ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
-            model);
+        std::shared_ptr<Reconstruction> model = read_left_model(c);
         if (model->NumRegImages() >= 2) {
           add_registered_images(*model);
           merged_models.push_back(std::move(model));
@@ -1005,11 +1010,7 @@ bool CommunityMapperController::Merge() {
   // a model of its own, if there are as many as the incremental mapper
   // keeps in a model (Mapper.min_model_size): it was in doubt or small.
   for (const int c : set_aside_communities) {
-    auto model = std::make_shared<Reconstruction>();
-    model->Read(workspace_.CommunityModelPath(c));
-    model = RestrictToImages(
-        ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
-        model);
+    std::shared_ptr<Reconstruction> model = read_left_model(c);
     if (static_cast<int>(model->NumRegImages()) >=
         options_.incremental_options.min_model_size) {
       LOG(INFO) << StringPrintf(
