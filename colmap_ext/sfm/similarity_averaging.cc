@@ -583,8 +583,8 @@ SimilarityAveragingResult AverageSimilarities(
     // communities were joined only by wrong matches: their similarity had 25
     // inliers of 442 correspondences (none within a fifth of the spread under
     // the true similarity), no shared image, and passed the co-visibility check
-    // (cross rate 0.23 against 0.94 inside). Kept, it put 22 of the 81
-    // images metres off.
+    // (cross rate 0.23 against 0.94 inside). Kept, it misplaced that
+    // community's 22 images (90th-percentile error 6.35, extent 11).
     std::vector<int> unconfirmed_communities;
     for (size_t e = 0; e < relative_similarities.size(); ++e) {
       const RelativeSimilarity& edge = relative_similarities[e];
