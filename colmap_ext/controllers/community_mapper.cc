@@ -886,17 +886,19 @@ bool CommunityMapperController::Merge() {
         "offered to part %d's refinement",
         part,
         part_and_target.second);
+    std::vector<std::string> part_image_names;
+    for (int c = 0; c < num_communities; ++c) {
+      if (models[c] && averaging.part_of_community[c] == part) {
+        for (const image_t image_id : communities.own_image_ids[c]) {
+          part_image_names.push_back(communities.name_of_image.at(image_id));
+        }
+      }
+    }
     for (auto target = offered_to_part.find(part);
          target != offered_to_part.end();
          target = offered_to_part.find(target->second)) {
-      for (int c = 0; c < num_communities; ++c) {
-        if (models[c] && averaging.part_of_community[c] == part) {
-          for (const image_t image_id : communities.own_image_ids[c]) {
-            unmodelled_images_of_part[target->second].insert(
-                communities.name_of_image.at(image_id));
-          }
-        }
-      }
+      unmodelled_images_of_part[target->second].insert(part_image_names.begin(),
+                                                       part_image_names.end());
     }
   }
   // Images an earlier part's model registered.
@@ -953,6 +955,10 @@ bool CommunityMapperController::Merge() {
       continue;
     }
     if (num_left_images < 2 && unmodelled_images_of_part[part].empty()) {
+      LOG(WARNING) << StringPrintf(
+          "Part %d: fewer than 2 of its communities' own images are left to "
+          "it: no model for it.",
+          part);
       for (const int c : part_communities) {
         models[c].reset();
       }
