@@ -1,18 +1,25 @@
 // The community mapper's stages end to end: partition, communities and merge
 // run as separate commands give the one-process result; a run killed after
 // its first community resumes and gives the same result; stages refuse an
-// output folder whose plan does not fit, and communities outside the plan.
+// output folder whose plan does not fit, and communities outside the plan;
+// the merge joins a community's second model as a community of its own.
 
 #include "colmap_ext/scene/community_io.h"
 #include "colmap_ext/scene/community_workspace.h"
 #include "colmap_ext/scene/model_evaluation.h"
+#include "colmap_ext/sfm/community_merger.h"
+#include "colmap_ext/util/atomic_output.h"
 #include "colmap_ext/util/testing.h"
+
+#include "colmap/geometry/sim3.h"
 
 #include "colmap/scene/database.h"
 #include "colmap/util/misc.h"
 
+#include <algorithm>
 #include <chrono>
 #include <fstream>
+#include <regex>
 #include <sstream>
 #include <thread>
 
@@ -290,6 +297,139 @@ TEST_F(CommunityMapperStages, StagesRefuseWhatDoesNotFitThePlan) {
   EXPECT_FALSE(ExistsDir(JoinPaths(out, "0")));
   // Nothing refused changed the plan.
   EXPECT_EQ(ReadTextFile(JoinPaths(out, "plan.txt")), plan);
+}
+
+// The images the merged models' refinements registered anew, by the log.
+int NumNewlyRegistered(const std::string& log) {
+  const std::regex pattern("(\\d+) images newly registered");
+  int num = 0;
+  for (auto it = std::sregex_iterator(log.begin(), log.end(), pattern);
+       it != std::sregex_iterator();
+       ++it) {
+    num += std::stoi((*it)[1]);
+  }
+  return num;
+}
+
+// Where the incremental mapper of a community makes two models (South
+// Building: 38 and 28 of a community's 66 images), the second takes part in
+// the merge as a community of its own: its images come in with the shape
+// the mapper gave them, joined by a similarity, instead of being registered
+// one by one into the merged model. Community 0 of the one-process run is
+// cut here into two such models across its longest extent, sharing four
+// images as the mapper's models may, the second in a frame of its own.
+TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
+  ASSERT_EQ(one_go_status_, 0) << *one_go_log_;
+  const CommunityPlan plan =
+      CommunityPlanFromText(ReadTextFile(JoinPaths(OneGoPath(), "plan.txt")));
+  const CommunityWorkspace one_go(OneGoPath());
+  Reconstruction community;
+  community.Read(one_go.CommunityModelPath(0));
+  std::vector<image_t> image_ids = community.RegImageIds();
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const image_t image_id : image_ids) {
+    mean += community.Image(image_id).ProjectionCenter() / image_ids.size();
+  }
+  Eigen::MatrixXd centres(image_ids.size(), 3);
+  for (size_t i = 0; i < image_ids.size(); ++i) {
+    centres.row(i) =
+        community.Image(image_ids[i]).ProjectionCenter().transpose() -
+        mean.transpose();
+  }
+  const Eigen::Vector3d axis =
+      Eigen::JacobiSVD<Eigen::MatrixXd>(centres, Eigen::ComputeThinV)
+          .matrixV()
+          .col(0);
+  std::sort(image_ids.begin(), image_ids.end(), [&](image_t a, image_t b) {
+    return axis.dot(community.Image(a).ProjectionCenter()) <
+           axis.dot(community.Image(b).ProjectionCenter());
+  });
+  const size_t cut = image_ids.size() * 11 / 20;
+  const std::unordered_set<image_t> first_ids(image_ids.begin(),
+                                              image_ids.begin() + cut + 2);
+  const std::unordered_set<image_t> second_ids(image_ids.begin() + cut - 2,
+                                               image_ids.end());
+  const std::shared_ptr<Reconstruction> first =
+      RestrictToImages(first_ids, std::make_shared<Reconstruction>(community));
+  const std::shared_ptr<Reconstruction> second =
+      RestrictToImages(second_ids, std::make_shared<Reconstruction>(community));
+  second->Transform(Sim3d(
+      2.5,
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.6, Eigen::Vector3d(1, 2, 3)
+                                                    .normalized())),
+      Eigen::Vector3d(4, -7, 2)));
+  int num_second_own = 0;
+  for (const std::string& name : plan.communities[0].own_image_names) {
+    const Image* image = second->FindImageWithName(name);
+    num_second_own +=
+        image != nullptr && image->IsRegistered() && !first_ids.count(image->ImageId())
+            ? 1
+            : 0;
+  }
+  ASSERT_GE(num_second_own, 10);
+
+  // `keep_second`: the second model is written beside the first (as the
+  // community stage does now) or not (as before, when only the largest was
+  // kept). Returns the merger's log.
+  const auto merge = [&](const std::string& name, const bool keep_second) {
+    const std::string out = JoinPaths(*root_, name);
+    const CommunityWorkspace workspace(out);
+    boost::filesystem::remove_all(out);
+    boost::filesystem::create_directories(workspace.CommunitiesDir());
+    for (const char* file : {"plan.txt", "communities.txt"}) {
+      boost::filesystem::copy_file(JoinPaths(OneGoPath(), file),
+                                   JoinPaths(out, file));
+    }
+    for (int c = 0; c < plan.NumCommunities(); ++c) {
+      CommunityRecord record = CommunityRecordFromText(
+          ReadTextFile(one_go.CommunityRecordPath(c)));
+      if (c == 0) {
+        WriteReconstructionAtomically(*first, workspace.CommunityModelPath(0));
+        record.num_registered = static_cast<int>(first->NumRegImages());
+        record.num_models = 2;
+        record.mean_reprojection_error = first->ComputeMeanReprojectionError();
+        if (keep_second) {
+          WriteReconstructionAtomically(*second,
+                                        workspace.CommunityOtherModelPath(0, 1));
+          record.num_other_models = 1;
+        }
+      } else {
+        Reconstruction model;
+        model.Read(one_go.CommunityModelPath(c));
+        WriteReconstructionAtomically(model, workspace.CommunityModelPath(c));
+      }
+      WriteTextFileAtomically(CommunityRecordToText(record),
+                              workspace.CommunityRecordPath(c));
+    }
+    std::string log;
+    EXPECT_EQ(RunCommand(Command("community_merger", out), &log), 0) << log;
+    return log;
+  };
+
+  const std::string log = merge("second-model", /*keep_second=*/true);
+  EXPECT_NE(log.find("Community 0's model 2 of 2 (" +
+                     std::to_string(second->NumRegImages()) + " images, " +
+                     std::to_string(num_second_own) +
+                     " of its own that no larger model of it holds) takes "
+                     "part as community " +
+                     std::to_string(plan.NumCommunities())),
+            std::string::npos)
+      << log;
+  const ModelEvaluation merged =
+      CompareWithGroundTruth(JoinPaths(*root_, "second-model", "0"));
+  const ModelEvaluation reference =
+      CompareWithGroundTruth(JoinPaths(OneGoPath(), "0"));
+  EXPECT_GE(merged.num_registered_images, reference.num_registered_images);
+  EXPECT_FALSE(ExistsDir(JoinPaths(*root_, "second-model", "1")));
+  ASSERT_TRUE(merged.aligned);
+  EXPECT_LT(merged.median_position_error,
+            1.5 * reference.median_position_error + 1e-4 * reference.extent);
+  EXPECT_LT(NumNewlyRegistered(log), num_second_own / 2) << log;
+
+  // Without the second model, its images are registered one by one.
+  const std::string without_log = merge("largest-only", /*keep_second=*/false);
+  EXPECT_GE(NumNewlyRegistered(without_log), num_second_own / 2)
+      << without_log;
 }
 
 }  // namespace

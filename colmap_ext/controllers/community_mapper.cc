@@ -56,11 +56,10 @@ void LogMemory(const std::string& step) {
             << ProcessMemoryToString(ReadProcessMemory());
 }
 
-// The images of every community, by the plan: its own (by id) and those its
-// reconstruction uses, its own and borrowed (by name).
+// The own images of every community, by the plan (the merge adds its extra
+// communities).
 struct CommunityImages {
   std::vector<std::unordered_set<image_t>> own_image_ids;
-  std::vector<std::unordered_set<std::string>> image_names;
   std::unordered_map<image_t, std::string> name_of_image;
   std::unordered_map<image_t, int> community_of_image;
 };
@@ -74,17 +73,12 @@ CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
   }
   CommunityImages groups;
   groups.own_image_ids.resize(plan.NumCommunities());
-  groups.image_names.resize(plan.NumCommunities());
   for (int c = 0; c < plan.NumCommunities(); ++c) {
     for (const std::string& name : plan.communities[c].own_image_names) {
       const image_t image_id = image_of_name.at(name);
       groups.own_image_ids[c].insert(image_id);
       groups.name_of_image.emplace(image_id, name);
       groups.community_of_image.emplace(image_id, c);
-      groups.image_names[c].insert(name);
-    }
-    for (const std::string& name : plan.communities[c].borrowed_image_names) {
-      groups.image_names[c].insert(name);
     }
   }
   return groups;
@@ -305,7 +299,16 @@ std::shared_ptr<Reconstruction> MergePart(
 // The closing summary of a run.
 void LogSummary(const CommunityMapperController::Summary& summary) {
   PrintHeading1("Community mapper summary");
-  for (size_t c = 0; c < summary.community_sizes.size(); ++c) {
+  // (A merge that stopped early judged nothing.)
+  const auto left_the_merge = [&summary](const size_t c) {
+    return c < summary.community_excluded.size() &&
+                   summary.community_excluded[c]
+               ? ", left the merge"
+               : "";
+  };
+  for (size_t c = 0; c < summary.community_sizes.size() &&
+                     c < summary.community_reports.size();
+       ++c) {
     const CommunityModelReport& report = summary.community_reports[c];
     LOG(INFO) << StringPrintf(
         "Community %d: %d images, %d registered%s%s",
@@ -313,7 +316,17 @@ void LogSummary(const CommunityMapperController::Summary& summary) {
         summary.community_sizes[c],
         report.num_registered,
         report.num_models > 1 ? " (largest of several models)" : "",
-        summary.community_excluded[c] ? ", left the merge" : "");
+        left_the_merge(c));
+  }
+  for (size_t e = 0; e < summary.extra_community_origins.size(); ++e) {
+    const size_t c = summary.community_sizes.size() + e;
+    LOG(INFO) << StringPrintf(
+        "Community %d (model %d of community %d): %d registered%s",
+        static_cast<int>(c),
+        summary.community_reports[c].model_index,
+        summary.extra_community_origins[e],
+        summary.community_reports[c].num_registered,
+        left_the_merge(c));
   }
   LOG(INFO) << StringPrintf(
       "Community pairs: %d joined by view-graph edges, %d with a similarity, "
@@ -551,10 +564,17 @@ bool CommunityMapperController::IsReconstructed(const int community_id) const {
   }
   try {
     const CommunityRecord record = CommunityRecordFromText(ReadTextFile(path));
+    bool has_models =
+        record.num_registered == 0 ||
+        IsModelDir(workspace_.CommunityModelPath(community_id));
+    for (int index = 1; index <= record.num_other_models; ++index) {
+      has_models = has_models &&
+                   IsModelDir(workspace_.CommunityOtherModelPath(community_id,
+                                                                 index));
+    }
     return record.community_id == community_id &&
            record.database_fingerprint == plan_.database_fingerprint &&
-           (record.num_registered == 0 ||
-            IsModelDir(workspace_.CommunityModelPath(community_id)));
+           has_models;
   } catch (const std::exception&) {
     return false;
   }
@@ -614,6 +634,19 @@ bool CommunityMapperController::ReconstructAndRecord(
       CreateDirIfNotExists(workspace_.CommunitiesDir());
       WriteReconstructionAtomically(
           model, workspace_.CommunityModelPath(community_id));
+      // The other models (largest first) that the merge may use, as the
+      // incremental mapper would keep them: of at least min_model_size.
+      for (const auto& other_model : reconstruction.other_models) {
+        if (static_cast<int>(other_model->NumRegImages()) <
+            options_.incremental_options.min_model_size) {
+          break;
+        }
+        ++record.num_other_models;
+        WriteReconstructionAtomically(
+            *other_model,
+            workspace_.CommunityOtherModelPath(community_id,
+                                               record.num_other_models));
+      }
     }
   } catch (const std::exception& error) {
     LOG(ERROR) << StringPrintf(
@@ -638,7 +671,9 @@ bool CommunityMapperController::ReconstructAndRecord(
         record.num_registered,
         record.num_images,
         record.num_models > 1
-            ? StringPrintf(" in the largest of %d models", record.num_models)
+            ? StringPrintf(" in the largest of %d models (%d kept beside it)",
+                           record.num_models,
+                           record.num_other_models)
                   .c_str()
             : "",
         record.num_points,
@@ -705,26 +740,96 @@ bool CommunityMapperController::Merge() {
   const Database database(options_.database_path);
   const ViewGraph view_graph =
       ViewGraph::Read(database, options_.MinNumMatches());
-  const CommunityImages communities = GroupImagesByCommunity(view_graph, plan_);
+  CommunityImages communities = GroupImagesByCommunity(view_graph, plan_);
   summary_.community_of_image = communities.community_of_image;
 
   // The communities, as their stage left them on disk.
-  const int num_communities = plan_.NumCommunities();
-  Models models(num_communities);
-  summary_.community_reports.assign(num_communities, CommunityModelReport());
-  for (int c = 0; c < num_communities; ++c) {
-    const CommunityRecord record = CommunityRecordFromText(
-        ReadTextFile(workspace_.CommunityRecordPath(c)));
+  const int num_plan_communities = plan_.NumCommunities();
+  Models models(num_plan_communities);
+  std::vector<std::string> model_paths;
+  std::vector<CommunityRecord> records;
+  summary_.community_reports.assign(num_plan_communities,
+                                    CommunityModelReport());
+  for (int c = 0; c < num_plan_communities; ++c) {
+    records.push_back(CommunityRecordFromText(
+        ReadTextFile(workspace_.CommunityRecordPath(c))));
+    const CommunityRecord& record = records.back();
     CommunityModelReport& report = summary_.community_reports[c];
     report.num_images = record.num_images;
     report.num_registered = record.num_registered;
     report.num_models = record.num_models;
     report.mean_reprojection_error = record.mean_reprojection_error;
+    model_paths.push_back(workspace_.CommunityModelPath(c));
     if (record.num_registered > 0) {
       models[c] = std::make_shared<Reconstruction>();
-      models[c]->Read(workspace_.CommunityModelPath(c));
+      models[c]->Read(model_paths[c]);
     }
   }
+  // Where a community's mapper made several models, each other model that
+  // registered at least Mapper.min_model_size of the community's own images
+  // that no larger model of it did takes part as an extra community,
+  // numbered after the plan's, which owns those images: its shape is the
+  // mapper's, joined by a similarity as any community's, instead of its
+  // images being registered anew one by one into the merged model.
+  summary_.extra_community_origins.clear();
+  for (int c = 0; c < num_plan_communities; ++c) {
+    if (!models[c] || !options_.merge_other_models) {
+      continue;
+    }
+    std::unordered_set<image_t> taken_image_ids(
+        models[c]->RegImageIds().begin(), models[c]->RegImageIds().end());
+    for (int index = 1; index <= records[c].num_other_models; ++index) {
+      auto other_model = std::make_shared<Reconstruction>();
+      const std::string path = workspace_.CommunityOtherModelPath(c, index);
+      other_model->Read(path);
+      std::unordered_set<image_t> owned_image_ids;
+      for (const image_t image_id : other_model->RegImageIds()) {
+        if (communities.own_image_ids[c].count(image_id) > 0 &&
+            taken_image_ids.count(image_id) == 0) {
+          owned_image_ids.insert(image_id);
+        }
+      }
+      taken_image_ids.insert(other_model->RegImageIds().begin(),
+                             other_model->RegImageIds().end());
+      if (static_cast<int>(owned_image_ids.size()) <
+          options_.incremental_options.min_model_size) {
+        LOG(INFO) << StringPrintf(
+            "Community %d's model %d of %d holds %d of its own images that "
+            "no larger model of it holds: too few to take part",
+            c,
+            index + 1,
+            records[c].num_models,
+            static_cast<int>(owned_image_ids.size()));
+        continue;
+      }
+      const int extra = static_cast<int>(models.size());
+      LOG(INFO) << StringPrintf(
+          "Community %d's model %d of %d (%d images, %d of its own that no "
+          "larger model of it holds) takes part as community %d",
+          c,
+          index + 1,
+          records[c].num_models,
+          static_cast<int>(other_model->NumRegImages()),
+          static_cast<int>(owned_image_ids.size()),
+          extra);
+      for (const image_t image_id : owned_image_ids) {
+        communities.own_image_ids[c].erase(image_id);
+        communities.community_of_image[image_id] = extra;
+      }
+      communities.own_image_ids.push_back(std::move(owned_image_ids));
+      CommunityModelReport report = summary_.community_reports[c];
+      report.num_registered = static_cast<int>(other_model->NumRegImages());
+      report.mean_reprojection_error =
+          other_model->ComputeMeanReprojectionError();
+      report.model_index = index + 1;
+      summary_.community_reports.push_back(report);
+      summary_.extra_community_origins.push_back(c);
+      models.push_back(std::move(other_model));
+      model_paths.push_back(path);
+    }
+  }
+  // The communities of the merge: the plan's, then the extra ones.
+  const int num_communities = static_cast<int>(models.size());
 
   LogMemory("reading the community models");
   const CrossEdges cross_edges =
@@ -911,7 +1016,7 @@ bool CommunityMapperController::Merge() {
   // earlier model registered.
   const auto read_left_model = [&](const int c) {
     auto model = std::make_shared<Reconstruction>();
-    model->Read(workspace_.CommunityModelPath(c));
+    model->Read(model_paths[c]);
     return RestrictToImages(
         ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
         model);
@@ -1087,6 +1192,8 @@ std::string CommunityMapperController::SummaryToText(const Summary& summary) {
   text += StringPrintf("num_communities %d\n",
                        static_cast<int>(summary.community_sizes.size()));
   text += "community_sizes" + join(summary.community_sizes) + "\n";
+  text += "extra_community_origins" + join(summary.extra_community_origins) +
+          "\n";
   text += "reconstructed_communities" +
           join(summary.reconstructed_communities) + "\n";
   text += "reused_communities" + join(summary.reused_communities) + "\n";

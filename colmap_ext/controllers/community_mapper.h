@@ -143,6 +143,15 @@ class CommunityMapperController : public BaseController {
     // images have a camera of their own in this fraction.
     bool UsesMapperSchedule(double own_camera_fraction) const;
 
+    // Where a community's mapper made several models, each other model
+    // that holds at least incremental_options.min_model_size of the
+    // community's own images (that no larger model of it holds) takes part
+    // in the merge as an extra community; false: only the largest does, and
+    // the refinement registers the others' images one by one (each with a
+    // local bundle adjustment). Merge-stage option: the community stage
+    // writes the other models either way.
+    bool merge_other_models = true;
+
     // Pairwise similarity estimation between connected communities.
     PairwiseSimilarityOptions pairwise_similarity;
 
@@ -202,14 +211,18 @@ class CommunityMapperController : public BaseController {
     int num_view_graph_edges = 0;
     int num_view_graph_components = 0;
     double max_modularity = 0.0;
-    // Per community: its own images, what its mapper produced, the verdict
-    // on its model, and whether it left the merge (its images were then
-    // offered to the merged model, and those it did not register kept the
-    // community's model unless it was broken).
+    // Per community of the plan: its own images.
     std::vector<int> community_sizes;
+    // Per community of the merge (the plan's, then the extra communities:
+    // other models of a community's mapper, see Merge()): what its mapper
+    // produced, the verdict on its model, and whether it left the merge
+    // (its images were then offered to the merged model, and those it did
+    // not register kept the community's model unless it was broken).
     std::vector<CommunityModelReport> community_reports;
     std::vector<CommunityJudgement> community_judgements;
     std::vector<bool> community_excluded;
+    // The plan's community each extra community comes from.
+    std::vector<int> extra_community_origins;
     // Pairs of communities joined by view-graph edges, with a pairwise
     // similarity, and kept by the averaging.
     int num_community_pairs = 0;
@@ -250,8 +263,10 @@ class CommunityMapperController : public BaseController {
 
   // Stage 3: merges the communities of the plan from their models and
   // records on disk into reconstruction_manager (largest first) and writes
-  // communities.ply. False if the plan does not fit, or communities have
-  // no record yet (they are named).
+  // communities.ply. Where a community's mapper made several models, the
+  // others that hold enough of its images take part as extra communities.
+  // False if the plan does not fit, or communities have no record yet (they
+  // are named).
   bool Merge();
 
   // All three stages; where the output folder holds a plan that fits, the

@@ -92,7 +92,8 @@ TEST(CommunityMapperSummary, TextHasTheFiguresScriptsRead) {
   summary.community_sizes = {59, 39, 30};
   summary.reused_communities = {0, 2};
   summary.reconstructed_communities = {1};
-  summary.community_excluded = {false, true, false};
+  summary.community_excluded = {false, true, false, false};
+  summary.extra_community_origins = {0};
   summary.model_num_registered = {127};
   summary.phase_seconds = {{"Partition", 0.25},
                            {"Final bundle adjustment", 12.5}};
@@ -103,6 +104,7 @@ TEST(CommunityMapperSummary, TextHasTheFiguresScriptsRead) {
         "max_modularity 0.5234\n",
         "num_communities 3\n",
         "community_sizes 59 39 30\n",
+        "extra_community_origins 0\n",
         "reused_communities 0 2\n",
         "reconstructed_communities 1\n",
         "num_excluded_communities 1\n",

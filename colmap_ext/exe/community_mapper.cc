@@ -593,6 +593,12 @@ void ParseCommand(int argc,
       "a community most of whose images have a camera of their own runs the "
       "mapper's own global adjustments (Mapper.ba_global_function_tolerance "
       "and ratios) instead of the two settings above");
+  add("merge_other_models",
+      &mapper_options.merge_other_models,
+      "where a community's mapper made several models, the others that hold "
+      "at least Mapper.min_model_size of its images take part in the merge "
+      "as extra communities (0: their images are registered one by one by "
+      "the refinement)");
   add("pairwise_max_relative_error",
       &mapper_options.pairwise_similarity.max_relative_error,
       "similarity RANSAC inlier threshold, relative to the spread of the "

@@ -114,6 +114,12 @@ std::string CommunityWorkspace::CommunityModelPath(
   return JoinPaths(CommunitiesDir(), std::to_string(community_id));
 }
 
+std::string CommunityWorkspace::CommunityOtherModelPath(const int community_id,
+                                                      const int index) const {
+  return JoinPaths(CommunitiesDir(),
+                   std::to_string(community_id) + "." + std::to_string(index));
+}
+
 std::string CommunityWorkspace::CommunityRecordPath(
     const int community_id) const {
   return JoinPaths(CommunitiesDir(), std::to_string(community_id) + ".done");
@@ -180,6 +186,11 @@ void CommunityWorkspace::RemoveCommunity(const int community_id) const {
   boost::system::error_code error;
   boost::filesystem::remove(CommunityRecordPath(community_id), error);
   boost::filesystem::remove_all(CommunityModelPath(community_id), error);
+  for (int index = 1; ExistsDir(CommunityOtherModelPath(community_id, index));
+       ++index) {
+    boost::filesystem::remove_all(CommunityOtherModelPath(community_id, index),
+                                  error);
+  }
 }
 
 void CommunityWorkspace::WriteMergedModels(
@@ -377,6 +388,7 @@ std::string CommunityRecordToText(const CommunityRecord& record) {
   text << "num_registered " << record.num_registered << "\n";
   text << "num_points " << record.num_points << "\n";
   text << "num_models " << record.num_models << "\n";
+  text << "num_other_models " << record.num_other_models << "\n";
   text << StringPrintf("mean_reprojection_error %.6f\n",
                        record.mean_reprojection_error);
   text << StringPrintf("seconds %.3f\n", record.seconds);
@@ -392,6 +404,10 @@ CommunityRecord CommunityRecordFromText(const std::string& text) {
   record.num_registered = IntValue(values, "num_registered");
   record.num_points = IntValue(values, "num_points");
   record.num_models = IntValue(values, "num_models");
+  // Records written before the other models were kept have none.
+  record.num_other_models = values.count("num_other_models") > 0
+                                ? IntValue(values, "num_other_models")
+                                : 0;
   record.mean_reprojection_error =
       DoubleValue(values, "mean_reprojection_error");
   record.seconds = DoubleValue(values, "seconds");

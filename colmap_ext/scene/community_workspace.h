@@ -5,7 +5,9 @@
 // cluster's scheduler can run the communities as separate jobs:
 //
 //   1. partition:    OUT/plan.txt, OUT/communities.txt
-//   2. community K:  OUT/communities/K/ (its model), then
+//   2. community K:  OUT/communities/K/ (its model; where its mapper made
+//                    several, the largest, and the others beside it as
+//                    OUT/communities/K.1/, K.2/, ...), then
 //                    OUT/communities/K.done (its record)
 //   3. merge:        OUT/0/, OUT/1/, ... (the merged models, largest first),
 //                    OUT/communities.ply, OUT/project.ini, OUT/summary.txt
@@ -48,6 +50,9 @@ class CommunityWorkspace {
   std::string CommunitiesPath() const;
   std::string CommunitiesDir() const;
   std::string CommunityModelPath(int community_id) const;
+  // The mapper's other models of the community: index 1 is the second
+  // largest, and so on.
+  std::string CommunityOtherModelPath(int community_id, int index) const;
   std::string CommunityRecordPath(int community_id) const;
   std::string MergedModelPath(int model_index) const;
   std::string CommunitiesPlyPath() const;
@@ -65,7 +70,7 @@ class CommunityWorkspace {
   // Removes every result of an earlier run (for --overwrite).
   void RemoveResults() const;
 
-  // Removes community K's model and record (to reconstruct it again).
+  // Removes community K's models and record (to reconstruct it again).
   void RemoveCommunity(int community_id) const;
 
   // Writes the merged models as OUT/0, OUT/1, ... (each atomically) and
@@ -119,6 +124,9 @@ struct CommunityRecord {
   int num_registered = 0;
   int num_points = 0;
   int num_models = 0;
+  // Of the other models, those written beside the largest (the ones of at
+  // least Mapper.min_model_size images: K.1, K.2, ...).
+  int num_other_models = 0;
   double mean_reprojection_error = 0.0;
   double seconds = 0.0;
   // The plan's database fingerprint, so that a record of another plan is

@@ -111,7 +111,8 @@ TEST(CommunityRecord, TextRoundTrip) {
   record.num_images = 57;
   record.num_registered = 55;
   record.num_points = 4242;
-  record.num_models = 2;
+  record.num_models = 3;
+  record.num_other_models = 1;
   record.mean_reprojection_error = 0.812345;
   record.seconds = 12.5;
   record.database_fingerprint = "0123456789abcdef";
@@ -121,11 +122,17 @@ TEST(CommunityRecord, TextRoundTrip) {
   EXPECT_EQ(read.num_images, 57);
   EXPECT_EQ(read.num_registered, 55);
   EXPECT_EQ(read.num_points, 4242);
-  EXPECT_EQ(read.num_models, 2);
+  EXPECT_EQ(read.num_models, 3);
+  EXPECT_EQ(read.num_other_models, 1);
   EXPECT_NEAR(read.mean_reprojection_error, 0.812345, 1e-6);
   EXPECT_NEAR(read.seconds, 12.5, 1e-3);
   EXPECT_EQ(read.database_fingerprint, record.database_fingerprint);
   EXPECT_THROW(CommunityRecordFromText("community 3\n"), std::invalid_argument);
+  // A record from before the other models were kept has none.
+  std::string old_text = CommunityRecordToText(record);
+  old_text.erase(old_text.find("num_other_models"),
+                 std::string("num_other_models 1\n").size());
+  EXPECT_EQ(CommunityRecordFromText(old_text).num_other_models, 0);
 }
 
 TEST(CommunityWorkspace, ResultsAreFoundAndRemoved) {
@@ -152,12 +159,17 @@ TEST(CommunityWorkspace, ResultsAreFoundAndRemoved) {
   CreateDirIfNotExists(workspace.CommunitiesDir());
   WriteReconstructionAtomically(model, workspace.CommunityModelPath(0));
   WriteTextFileAtomically("x", workspace.CommunityRecordPath(0));
+  WriteReconstructionAtomically(model, workspace.CommunityOtherModelPath(0, 1));
+  WriteReconstructionAtomically(model, workspace.CommunityOtherModelPath(0, 2));
   WriteReconstructionAtomically(model, workspace.CommunityModelPath(1));
   WriteTextFileAtomically("x", workspace.CommunityRecordPath(1));
   workspace.RemoveCommunity(0);
   EXPECT_FALSE(ExistsFile(workspace.CommunityRecordPath(0)));
   EXPECT_FALSE(ExistsDir(workspace.CommunityModelPath(0)));
+  EXPECT_FALSE(ExistsDir(workspace.CommunityOtherModelPath(0, 1)));
+  EXPECT_FALSE(ExistsDir(workspace.CommunityOtherModelPath(0, 2)));
   EXPECT_TRUE(ExistsFile(workspace.CommunityRecordPath(1)));
+  EXPECT_TRUE(ExistsDir(workspace.CommunityModelPath(1)));
 
   WriteTextFileAtomically("plan", workspace.PlanPath());
   WriteTextFileAtomically("ini", workspace.ProjectPath());

@@ -22,7 +22,7 @@ std::vector<CommunityJudgement> JudgeCommunityModels(
   std::vector<double> errors;
   std::vector<double> fractions;
   for (const CommunityModelReport& report : reports) {
-    if (report.num_registered > 0) {
+    if (report.num_registered > 0 && report.model_index == 1) {
       errors.push_back(report.mean_reprojection_error);
       fractions.push_back(static_cast<double>(report.num_registered) /
                           std::max(1, report.num_images));
@@ -38,8 +38,16 @@ std::vector<CommunityJudgement> JudgeCommunityModels(
       continue;
     }
     CommunityJudgement& judgement = judgements[c];
-    if (report.num_registered <
-        options.min_registered_fraction * median_fraction * report.num_images) {
+    if (report.model_index > 1) {
+      judgement.doubtful = true;
+      judgement.reason = StringPrintf("model %d of %d, %d of %d images",
+                                      report.model_index,
+                                      report.num_models,
+                                      report.num_registered,
+                                      report.num_images);
+    } else if (report.num_registered < options.min_registered_fraction *
+                                           median_fraction *
+                                           report.num_images) {
       judgement.doubtful = true;
       judgement.reason = StringPrintf(
           "registered %d of %d images%s",

@@ -25,6 +25,11 @@
 //     others' 0.76 (camera errors of metres against millimetres); kept in
 //     the merge, it left the merged model's 90th-percentile camera error at
 //     10-40 m, left out 0.04 m.
+// A model that the mapper made beside a community's largest (an extra
+// community of the merge, community_mapper.h) is judged against the
+// communities' largest models, which alone set the medians: it is always
+// in doubt (what is left of a community its mapper could not hold in one
+// model), and broken by the same rule on its reprojection error.
 
 #pragma once
 
@@ -44,6 +49,9 @@ struct CommunityModelReport {
   int num_models = 0;
   // Mean reprojection error of the model that takes part (pixels).
   double mean_reprojection_error = 0.0;
+  // Which of the mapper's models takes part: 1 for the largest, 2 for the
+  // second largest (an extra community), ...
+  int model_index = 1;
 };
 
 struct CommunityJudgementOptions {

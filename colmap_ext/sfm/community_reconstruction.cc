@@ -6,6 +6,7 @@
 #include "colmap/scene/reconstruction_manager.h"
 #include "colmap/util/logging.h"
 
+#include <algorithm>
 #include <chrono>
 #include <thread>
 
@@ -68,11 +69,20 @@ CommunityReconstruction ReconstructCommunity(
 
   CommunityReconstruction result;
   result.num_models = static_cast<int>(reconstruction_manager->Size());
+  std::vector<std::shared_ptr<Reconstruction>> models;
   for (size_t i = 0; i < reconstruction_manager->Size(); ++i) {
-    const auto& model = reconstruction_manager->Get(i);
-    if (!result.model || model->NumRegImages() > result.model->NumRegImages()) {
-      result.model = model;
-    }
+    models.push_back(reconstruction_manager->Get(i));
+  }
+  // Largest first; of equal ones, the one the mapper made first.
+  std::stable_sort(models.begin(),
+                   models.end(),
+                   [](const std::shared_ptr<Reconstruction>& a,
+                      const std::shared_ptr<Reconstruction>& b) {
+                     return a->NumRegImages() > b->NumRegImages();
+                   });
+  if (!models.empty()) {
+    result.model = models[0];
+    result.other_models.assign(models.begin() + 1, models.end());
   }
   return result;
 }

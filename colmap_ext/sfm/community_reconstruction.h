@@ -13,7 +13,10 @@
 //   - the random number generator of the reconstructing thread is seeded
 //     anew, so that a community gives the same model whichever worker,
 //     thread or process reconstructs it (with one thread per community).
-// Where the mapper makes several models, the largest is the community's.
+// Where the mapper makes several models, the largest is the community's and
+// the others are kept beside it, largest first: the merge lets those that
+// hold enough of the community's images take part as communities of their
+// own (community_mapper.h), instead of registering their images anew.
 
 #pragma once
 
@@ -23,12 +26,15 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 namespace colmap {
 
 struct CommunityReconstruction {
   // The largest model (nullptr if the mapper made none).
   std::shared_ptr<Reconstruction> model;
+  // The mapper's other models, largest first.
+  std::vector<std::shared_ptr<Reconstruction>> other_models;
   // Models the mapper made.
   int num_models = 0;
 };

@@ -50,6 +50,7 @@ TEST_F(ReconstructCommunityTest, ReconstructsOnlyTheCommunitysImages) {
       ReconstructCommunity(options_, "", database_path_, &database_mutex);
   ASSERT_TRUE(result.model);
   EXPECT_GE(result.num_models, 1);
+  EXPECT_EQ(result.other_models.size() + 1, result.num_models);
   EXPECT_EQ(result.model->NumRegImages(), options_->image_names.size());
   for (const image_t image_id : result.model->RegImageIds()) {
     EXPECT_EQ(options_->image_names.count(result.model->Image(image_id).Name()),
@@ -79,6 +80,34 @@ TEST_F(ReconstructCommunityTest, SameModelInAnyThread) {
     const Image& image2 = second.model->Image(image_id);
     EXPECT_LT((image1.ProjectionCenter() - image2.ProjectionCenter()).norm(),
               1e-9);
+  }
+}
+
+// Two landmarks without the walkway that joins them: the mapper makes a
+// model of each, and both are returned, the largest as the community's.
+TEST_F(ReconstructCommunityTest, OtherModelsAreKeptLargestFirst) {
+  auto options = std::make_shared<IncrementalMapperOptions>(*options_);
+  options->image_names.clear();
+  int num_dropped = 0;
+  for (const auto& image_and_cluster : scene_.image_cluster) {
+    const std::string& name =
+        scene_.ground_truth.Image(image_and_cluster.first).Name();
+    // Cluster 1 without three of its images: the smaller model.
+    if (image_and_cluster.second == 0 ||
+        (image_and_cluster.second == 1 && ++num_dropped > 3)) {
+      options->image_names.insert(name);
+    }
+  }
+  std::mutex database_mutex;
+  const CommunityReconstruction result =
+      ReconstructCommunity(options, "", database_path_, &database_mutex);
+  ASSERT_TRUE(result.model);
+  EXPECT_EQ(result.num_models, 2);
+  ASSERT_EQ(result.other_models.size(), 1);
+  EXPECT_EQ(result.model->NumRegImages(), 16);
+  EXPECT_EQ(result.other_models[0]->NumRegImages(), 13);
+  for (const image_t image_id : result.other_models[0]->RegImageIds()) {
+    EXPECT_EQ(scene_.image_cluster.at(image_id), 1);
   }
 }
 
