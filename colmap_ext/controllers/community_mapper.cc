@@ -84,6 +84,74 @@ CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
   return groups;
 }
 
+// Each other model that community `record.community_id`'s mapper made (as
+// its stage wrote them into `workspace`) and that registered at least
+// `min_model_size` of the community's own images that no larger model of it
+// did becomes an extra community, numbered after those in `models`, which
+// owns those images (the community keeps the others): its shape is the
+// mapper's, joined by a similarity as any community's, instead of its
+// images being registered anew one by one into the merged model. Its report
+// and origin are added to `summary`.
+void AddExtraCommunities(const CommunityWorkspace& workspace,
+                         const CommunityRecord& record,
+                         const int min_model_size,
+                         CommunityImages* communities,
+                         Models* models,
+                         std::vector<std::string>* model_paths,
+                         CommunityMapperController::Summary* summary) {
+  const int c = record.community_id;
+  std::unordered_set<image_t> taken_image_ids(
+      (*models)[c]->RegImageIds().begin(), (*models)[c]->RegImageIds().end());
+  for (int index = 1; index <= record.num_other_models; ++index) {
+    auto other_model = std::make_shared<Reconstruction>();
+    const std::string path = workspace.CommunityOtherModelPath(c, index);
+    other_model->Read(path);
+    std::unordered_set<image_t> owned_image_ids;
+    for (const image_t image_id : other_model->RegImageIds()) {
+      if (communities->own_image_ids[c].count(image_id) > 0 &&
+          taken_image_ids.count(image_id) == 0) {
+        owned_image_ids.insert(image_id);
+      }
+    }
+    taken_image_ids.insert(other_model->RegImageIds().begin(),
+                           other_model->RegImageIds().end());
+    if (static_cast<int>(owned_image_ids.size()) < min_model_size) {
+      LOG(INFO) << StringPrintf(
+          "Community %d's model %d of %d holds %d of its own images that no "
+          "larger model of it holds: too few to take part",
+          c,
+          index + 1,
+          record.num_models,
+          static_cast<int>(owned_image_ids.size()));
+      continue;
+    }
+    const int extra = static_cast<int>(models->size());
+    LOG(INFO) << StringPrintf(
+        "Community %d's model %d of %d (%d images, %d of its own that no "
+        "larger model of it holds) takes part as community %d",
+        c,
+        index + 1,
+        record.num_models,
+        static_cast<int>(other_model->NumRegImages()),
+        static_cast<int>(owned_image_ids.size()),
+        extra);
+    for (const image_t image_id : owned_image_ids) {
+      communities->own_image_ids[c].erase(image_id);
+      communities->community_of_image[image_id] = extra;
+    }
+    communities->own_image_ids.push_back(std::move(owned_image_ids));
+    CommunityModelReport report = summary->community_reports[c];
+    report.num_registered = static_cast<int>(other_model->NumRegImages());
+    report.mean_reprojection_error =
+        other_model->ComputeMeanReprojectionError();
+    report.model_index = index + 1;
+    summary->community_reports.push_back(report);
+    summary->extra_community_origins.push_back(c);
+    models->push_back(std::move(other_model));
+    model_paths->push_back(path);
+  }
+}
+
 // The images of `image_ids` that are not in `taken_image_ids`.
 template <typename ImageIds>
 std::unordered_set<image_t> ImagesNotTaken(
@@ -765,67 +833,18 @@ bool CommunityMapperController::Merge() {
       models[c]->Read(model_paths[c]);
     }
   }
-  // Where a community's mapper made several models, each other model that
-  // registered at least Mapper.min_model_size of the community's own images
-  // that no larger model of it did takes part as an extra community,
-  // numbered after the plan's, which owns those images: its shape is the
-  // mapper's, joined by a similarity as any community's, instead of its
-  // images being registered anew one by one into the merged model.
+  // Where a community's mapper made several models, the others take part
+  // as extra communities (AddExtraCommunities).
   summary_.extra_community_origins.clear();
   for (int c = 0; c < num_plan_communities; ++c) {
-    if (!models[c] || !options_.merge_other_models) {
-      continue;
-    }
-    std::unordered_set<image_t> taken_image_ids(
-        models[c]->RegImageIds().begin(), models[c]->RegImageIds().end());
-    for (int index = 1; index <= records[c].num_other_models; ++index) {
-      auto other_model = std::make_shared<Reconstruction>();
-      const std::string path = workspace_.CommunityOtherModelPath(c, index);
-      other_model->Read(path);
-      std::unordered_set<image_t> owned_image_ids;
-      for (const image_t image_id : other_model->RegImageIds()) {
-        if (communities.own_image_ids[c].count(image_id) > 0 &&
-            taken_image_ids.count(image_id) == 0) {
-          owned_image_ids.insert(image_id);
-        }
-      }
-      taken_image_ids.insert(other_model->RegImageIds().begin(),
-                             other_model->RegImageIds().end());
-      if (static_cast<int>(owned_image_ids.size()) <
-          options_.incremental_options.min_model_size) {
-        LOG(INFO) << StringPrintf(
-            "Community %d's model %d of %d holds %d of its own images that "
-            "no larger model of it holds: too few to take part",
-            c,
-            index + 1,
-            records[c].num_models,
-            static_cast<int>(owned_image_ids.size()));
-        continue;
-      }
-      const int extra = static_cast<int>(models.size());
-      LOG(INFO) << StringPrintf(
-          "Community %d's model %d of %d (%d images, %d of its own that no "
-          "larger model of it holds) takes part as community %d",
-          c,
-          index + 1,
-          records[c].num_models,
-          static_cast<int>(other_model->NumRegImages()),
-          static_cast<int>(owned_image_ids.size()),
-          extra);
-      for (const image_t image_id : owned_image_ids) {
-        communities.own_image_ids[c].erase(image_id);
-        communities.community_of_image[image_id] = extra;
-      }
-      communities.own_image_ids.push_back(std::move(owned_image_ids));
-      CommunityModelReport report = summary_.community_reports[c];
-      report.num_registered = static_cast<int>(other_model->NumRegImages());
-      report.mean_reprojection_error =
-          other_model->ComputeMeanReprojectionError();
-      report.model_index = index + 1;
-      summary_.community_reports.push_back(report);
-      summary_.extra_community_origins.push_back(c);
-      models.push_back(std::move(other_model));
-      model_paths.push_back(path);
+    if (models[c] && options_.merge_other_models) {
+      AddExtraCommunities(workspace_,
+                          records[c],
+                          options_.incremental_options.min_model_size,
+                          &communities,
+                          &models,
+                          &model_paths,
+                          &summary_);
     }
   }
   // The communities of the merge: the plan's, then the extra ones.
