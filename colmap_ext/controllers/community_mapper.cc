@@ -87,7 +87,7 @@ CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
 // Each other model that community `record.community_id`'s mapper made (as
 // its stage wrote them into `workspace`) and that registered at least
 // `min_model_size` of the community's own images that no larger model of it
-// did becomes an extra community, numbered after those in `models`, which
+// taking part did becomes an extra community, numbered after those in `models`, which
 // owns those images (the community keeps the others): its shape is the
 // mapper's, joined by a similarity as any community's, instead of its
 // images being registered anew one by one into the merged model. Its report
@@ -113,8 +113,6 @@ void AddExtraCommunities(const CommunityWorkspace& workspace,
         owned_image_ids.insert(image_id);
       }
     }
-    taken_image_ids.insert(other_model->RegImageIds().begin(),
-                           other_model->RegImageIds().end());
     if (static_cast<int>(owned_image_ids.size()) < min_model_size) {
       LOG(INFO) << StringPrintf(
           "Community %d's model %d of %d holds %d of its own images that no "
@@ -125,6 +123,8 @@ void AddExtraCommunities(const CommunityWorkspace& workspace,
           static_cast<int>(owned_image_ids.size()));
       continue;
     }
+    taken_image_ids.insert(other_model->RegImageIds().begin(),
+                           other_model->RegImageIds().end());
     const int extra = static_cast<int>(models->size());
     LOG(INFO) << StringPrintf(
         "Community %d's model %d of %d (%d images, %d of its own that no "

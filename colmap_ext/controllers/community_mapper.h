@@ -234,7 +234,8 @@ class CommunityMapperController : public BaseController {
     std::vector<int> reused_communities;
     // Final models (largest first): registered images of each.
     std::vector<int> model_num_registered;
-    // Community of every image of the view graph.
+    // Community of the plan of every image of the view graph (an extra
+    // community's images are its origin's: communities.ply colours them so).
     std::unordered_map<image_t, int> community_of_image;
     // Phase name and seconds.
     std::vector<std::pair<std::string, double>> phase_seconds;
@@ -244,8 +245,9 @@ class CommunityMapperController : public BaseController {
 
   // The summary as "key value" lines (OUT/summary.txt), for scripts such as
   // the benchmark: phase_seconds NAME SECONDS (NAME in snake case),
-  // community_sizes, reused_communities, model_num_registered,
-  // peak_memory_mb, ...
+  // community_sizes (the plan's), extra_community_origins,
+  // num_excluded_communities (of the plan's and the extra ones),
+  // reused_communities, model_num_registered, peak_memory_mb, ...
   static std::string SummaryToText(const Summary& summary);
 
   CommunityMapperController(
