@@ -902,10 +902,12 @@ bool CommunityMapperController::Merge() {
         report.rotation_residual_deg,
         report.log_scale_residual,
         report.relative_translation_residual,
-        report.kept          ? "kept"
-        : report.unconfirmed ? "dropped (on no cycle, and the images both "
-                               "models registered do not confirm it)"
-                             : "dropped");
+        report.kept           ? "kept"
+        : report.contradicted ? "dropped before the averaging (the images "
+                                "both models registered contradict it)"
+        : report.unconfirmed  ? "dropped (on no cycle, and the images both "
+                                "models registered do not confirm it)"
+                              : "dropped");
   }
   if (!false_pairs.empty()) {
     LOG(INFO) << StringPrintf(

@@ -351,6 +351,7 @@ bool SimilarityAveragingOptions::Check() const {
   CHECK_OPTION_GT(max_log_scale_residual, 0);
   CHECK_OPTION_GT(max_relative_translation_residual, 0);
   CHECK_OPTION_GE(max_num_rejection_rounds, 0);
+  CHECK_OPTION_GE(min_num_contradicting_shared_images, 0);
   CHECK_OPTION_GE(min_num_shared_images_on_bridge, 0);
   CHECK_OPTION_GE(min_num_confirming_shared_images, 1);
   CHECK_OPTION_GT(doubtful_weight, 0);
@@ -421,9 +422,16 @@ SimilarityAveragingResult AverageSimilarities(
     result.excluded[c] = communities[c].excluded;
   }
   for (size_t e = 0; e < relative_similarities.size(); ++e) {
-    result.edges[e].kept =
-        !result.excluded[relative_similarities[e].community1] &&
-        !result.excluded[relative_similarities[e].community2];
+    const RelativeSimilarity& edge = relative_similarities[e];
+    const int num_disagreeing =
+        edge.num_shared_images - edge.num_agreeing_shared_images;
+    result.edges[e].contradicted =
+        options.min_num_contradicting_shared_images > 0 &&
+        num_disagreeing >= options.min_num_contradicting_shared_images &&
+        num_disagreeing >= edge.num_agreeing_shared_images;
+    result.edges[e].kept = !result.excluded[edge.community1] &&
+                           !result.excluded[edge.community2] &&
+                           !result.edges[e].contradicted;
   }
 
   const auto CountKeptEdges = [&]() {

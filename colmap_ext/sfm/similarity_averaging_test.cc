@@ -462,7 +462,7 @@ TEST(AverageSimilarities, DoubtfulCommunityNeedsItsSharedImagesOnABridge) {
   SimilarityAveragingResult result =
       AverageSimilarities(communities, path, SimilarityAveragingOptions());
   EXPECT_FALSE(result.edges[edge12].kept);
-  EXPECT_TRUE(result.edges[edge12].unconfirmed);
+  EXPECT_TRUE(result.edges[edge12].contradicted);
   EXPECT_TRUE(result.edges[1 - edge12].kept);
   EXPECT_EQ(result.NumParts(), 2);
   EXPECT_EQ(result.part_of_community[0], result.part_of_community[1]);
@@ -515,6 +515,68 @@ TEST(AverageSimilarities, DoubtfulCommunityNeedsItsSharedImagesOnABridge) {
   result =
       AverageSimilarities(communities, cycle, SimilarityAveragingOptions());
   EXPECT_EQ(result.NumParts(), 1);
+}
+
+// A cycle whose wrong edge joins its two largest communities (the heaviest
+// edge) and is contradicted by its shared images, 3 of 6 placed elsewhere
+// (on South Building, a community had registered three borrowed images 5
+// units off, and their points gave its link 1026 inliers and a wrong
+// scale); every other edge has its 6 shared images placed alike.
+TEST(AverageSimilarities, EdgeContradictedBySharedImagesIsLeftOut) {
+  int bent = -1;
+  Problem problem = MakeBentCycle({150, 120, 110, 100}, 31, 0, 1, &bent);
+  for (RelativeSimilarity& edge : problem.edges) {
+    edge.num_shared_images = 6;
+    edge.num_agreeing_shared_images = 6;
+  }
+  problem.edges[bent].num_inliers = 1000;
+  problem.edges[bent].num_agreeing_shared_images = 3;
+
+  const SimilarityAveragingResult result = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+  EXPECT_TRUE(result.edges[bent].contradicted);
+  EXPECT_FALSE(result.edges[bent].kept);
+  // The other edges, a path now, are confirmed by their shared images: one
+  // part, right.
+  for (size_t e = 0; e < problem.edges.size(); ++e) {
+    if (static_cast<int>(e) != bent) {
+      EXPECT_TRUE(result.edges[e].kept) << e;
+      EXPECT_FALSE(result.edges[e].contradicted) << e;
+    }
+  }
+  EXPECT_EQ(result.NumParts(), 1);
+  const Errors errors = MaxErrors(result, problem);
+  EXPECT_LT(errors.rotation_deg, 1e-6);
+  EXPECT_LT(errors.position, 1e-5);
+
+  // Averaged with the others, the heaviest edge wins its cycle: a right edge
+  // takes the disagreement (25 degrees) and is dropped, and the wrong one,
+  // a bridge then, is not confirmed: the communities end in several parts.
+  SimilarityAveragingOptions trusting;
+  trusting.min_num_contradicting_shared_images = 0;
+  const SimilarityAveragingResult trusted =
+      AverageSimilarities(problem.Communities(), problem.edges, trusting);
+  EXPECT_FALSE(trusted.edges[bent].kept);
+  int num_right_dropped = 0;
+  for (size_t e = 0; e < problem.edges.size(); ++e) {
+    num_right_dropped +=
+        static_cast<int>(e) != bent && !trusted.edges[e].kept ? 1 : 0;
+  }
+  EXPECT_GE(num_right_dropped, 1);
+  EXPECT_GT(trusted.NumParts(), 1);
+
+  // Fewer placed elsewhere than alike (2 of 6), or a single one, is not a
+  // contradiction.
+  for (const int num_agreeing : {4, 0}) {
+    problem.edges[bent].num_shared_images = num_agreeing == 0 ? 1 : 6;
+    problem.edges[bent].num_agreeing_shared_images = num_agreeing;
+    EXPECT_FALSE(AverageSimilarities(problem.Communities(),
+                                     problem.edges,
+                                     SimilarityAveragingOptions())
+                     .edges[bent]
+                     .contradicted)
+        << num_agreeing;
+  }
 }
 
 TEST(AverageSimilarities, BridgeWithoutSharedImagesNeedsFullSupport) {
