@@ -640,6 +640,12 @@ void ParseCommand(int argc,
       &mapper_options.pairwise_similarity.max_shared_image_relative_distance,
       "... and this distance, relative to the spread of the co-visible "
       "points");
+  add("reject_worst_first",
+      &mapper_options.similarity_averaging.reject_worst_first,
+      "each round of the averaging rejects only the similarity of each part "
+      "that is furthest beyond the bounds, and a doubtful or small community "
+      "whose one remaining similarity its shared images confirm stays (0: "
+      "every similarity beyond the bounds goes at once)");
   add("min_num_contradicting_shared_images",
       &mapper_options.similarity_averaging.min_num_contradicting_shared_images,
       "a similarity under which at least this many shared images are placed "

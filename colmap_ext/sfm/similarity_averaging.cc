@@ -445,6 +445,12 @@ SimilarityAveragingResult AverageSimilarities(
     return num_kept_edges;
   };
 
+  // Rejecting one edge per part and round takes up to one round per edge.
+  const int max_num_rounds =
+      options.reject_worst_first && options.max_num_rejection_rounds > 0
+          ? std::max(options.max_num_rejection_rounds,
+                     static_cast<int>(relative_similarities.size()))
+          : options.max_num_rejection_rounds;
   std::vector<std::vector<int>> parts;
   for (int round = 0;; ++round) {
     // Connected parts over the kept edges.
@@ -528,6 +534,10 @@ SimilarityAveragingResult AverageSimilarities(
     // weaker community if it cannot be trusted on its own.
     std::vector<int> to_exclude;
     bool rejected = false;
+    // With reject_worst_first, the edge beyond the bounds by the largest
+    // factor in each part (by its reference's label): excess and index.
+    std::map<int, std::pair<double, size_t>> worst_of_part;
+    std::vector<size_t> to_reject;
     for (size_t e = 0; e < relative_similarities.size(); ++e) {
       if (!result.edges[e].kept) {
         continue;
@@ -546,21 +556,44 @@ SimilarityAveragingResult AverageSimilarities(
       // unconfirmed ones of its part go (SpreadCycleDrift).
       const bool waits =
           finite && deferred.count(&relative_similarities[e]) > 0;
-      if (!within_bounds && !waits &&
-          (round < options.max_num_rejection_rounds || !finite)) {
-        result.edges[e].kept = false;
-        rejected = true;
-        const int community1 = relative_similarities[e].community1;
-        const int community2 = relative_similarities[e].community2;
-        const int weaker =
-            community_weights[community1] <= community_weights[community2]
-                ? community1
-                : community2;
-        if (communities[weaker].doubtful ||
-            communities[weaker].num_images <
-                options.min_relative_size * median_size) {
-          to_exclude.push_back(weaker);
+      if (!within_bounds && !waits && (round < max_num_rounds || !finite)) {
+        if (!finite || !options.reject_worst_first) {
+          to_reject.push_back(e);
+        } else {
+          const SimilarityAveragingResult::EdgeReport& report =
+              result.edges[e];
+          const double excess = std::max(
+              {report.rotation_residual_deg / options.max_rotation_residual_deg,
+               report.log_scale_residual / options.max_log_scale_residual,
+               report.relative_translation_residual /
+                   options.max_relative_translation_residual});
+          auto& worst =
+              worst_of_part
+                  .emplace(component[relative_similarities[e].community1],
+                           std::make_pair(0.0, e))
+                  .first->second;
+          if (excess > worst.first) {
+            worst = {excess, e};
+          }
         }
+      }
+    }
+    for (const auto& part_and_worst : worst_of_part) {
+      to_reject.push_back(part_and_worst.second.second);
+    }
+    for (const size_t e : to_reject) {
+      result.edges[e].kept = false;
+      rejected = true;
+      const int community1 = relative_similarities[e].community1;
+      const int community2 = relative_similarities[e].community2;
+      const int weaker =
+          community_weights[community1] <= community_weights[community2]
+              ? community1
+              : community2;
+      if (communities[weaker].doubtful ||
+          communities[weaker].num_images <
+              options.min_relative_size * median_size) {
+        to_exclude.push_back(weaker);
       }
     }
     // A small or doubtful community that is left with fewer than two kept
@@ -571,6 +604,27 @@ SimilarityAveragingResult AverageSimilarities(
     for (const int community : to_exclude) {
       if (num_kept_edges[community] >= 2) {
         continue;
+      }
+      // A community in doubt but not small whose one kept edge its shared
+      // images all confirm (at least min_num_confirming_shared_images,
+      // none placed elsewhere) is anchored by them, not by the rejected
+      // edge's similarity alone. (A small one may be a short piece bent
+      // inside itself, which one edge cannot check.)
+      if (options.reject_worst_first && num_kept_edges[community] == 1 &&
+          communities[community].num_images >=
+              options.min_relative_size * median_size) {
+        bool confirmed = false;
+        for (size_t e = 0; e < relative_similarities.size(); ++e) {
+          const RelativeSimilarity& edge = relative_similarities[e];
+          if (result.edges[e].kept &&
+              (edge.community1 == community || edge.community2 == community)) {
+            confirmed = SharedImagesConfirm(
+                edge, options.min_num_confirming_shared_images, 0);
+          }
+        }
+        if (confirmed) {
+          continue;
+        }
       }
       result.excluded[community] = true;
       for (size_t e = 0; e < relative_similarities.size(); ++e) {

@@ -132,6 +132,15 @@ struct SimilarityAveragingOptions {
   // Rounds of rejection and re-averaging (0: keep every edge).
   int max_num_rejection_rounds = 5;
 
+  // Each round rejects only the edge of each part that is beyond the bounds
+  // by the largest factor (wrong edges distort the averaging, so that right
+  // ones next to them can look wrong until they are out), and a community in
+  // doubt but not small whose one remaining edge all its shared images
+  // confirm (at least min_num_confirming_shared_images) stays; there are then as many rounds as edges, at most (but 0
+  // still keeps every edge). False: every edge beyond the bounds goes at
+  // once.
+  bool reject_worst_first = true;
+
   // Drift on a long cycle: where the L1 averaging of a part leaves edges
   // beyond the bounds above, but each of them joins two communities not in
   // doubt and is confirmed by the images both registered (at least
