@@ -579,6 +579,76 @@ TEST(AverageSimilarities, EdgeContradictedBySharedImagesIsLeftOut) {
   }
 }
 
+// South Building matched anew (stop 29): community 0, in doubt (its mapper
+// broke it into two models), had one right link confirmed by its 6 shared
+// images and two wrong ones, weakly supported, flipped by 176 and 179
+// degrees (a symmetric facade). Rejecting every edge beyond the bounds at
+// once also took its right link, whose translation the wrong ones had
+// pulled off, and the community left the merge.
+TEST(AverageSimilarities, WorstEdgeGoesFirstAndAConfirmedEdgeKeepsItsCommunity) {
+  Problem problem = MakeCycle({40, 39, 31, 15}, 40);
+  const Problem complete = MakeProblem(4, 0, Noise(), 0, 40);
+  const int edge02 = FindEdge(complete, 0, 2);
+  ASSERT_GE(edge02, 0);
+  problem.edges.push_back(complete.edges[edge02]);
+  const int wrong02 = static_cast<int>(problem.edges.size()) - 1;
+  const int wrong03 = FindEdge(problem, 0, 3);
+  const auto flip = [](RelativeSimilarity* edge,
+                       const double angle_deg,
+                       const Eigen::Vector3d& axis) {
+    const Sim3d wrong(
+        1.1,
+        Eigen::Quaterniond(
+            Eigen::AngleAxisd(DegToRad(angle_deg), axis.normalized())),
+        Eigen::Vector3d(3, 0, 0));
+    edge->second_from_first = wrong * edge->second_from_first;
+    for (Eigen::Vector3d& point : edge->points2) {
+      point = wrong * point;
+    }
+  };
+  flip(&problem.edges[wrong02], 170, Eigen::Vector3d(1, 0, 0));
+  problem.edges[wrong02].num_inliers = 22;
+  flip(&problem.edges[wrong03], 175, Eigen::Vector3d(0, 1, 0.3));
+  problem.edges[wrong03].num_inliers = 48;
+  for (size_t e = 0; e < problem.edges.size(); ++e) {
+    if (static_cast<int>(e) != wrong02 && static_cast<int>(e) != wrong03) {
+      problem.edges[e].num_shared_images = 6;
+      problem.edges[e].num_agreeing_shared_images = 6;
+    }
+  }
+  std::vector<AveragedCommunity> communities = problem.Communities();
+  communities[0].doubtful = true;
+  communities[3].doubtful = true;
+
+  const SimilarityAveragingResult result = AverageSimilarities(
+      communities, problem.edges, SimilarityAveragingOptions());
+  EXPECT_FALSE(result.edges[wrong02].kept);
+  EXPECT_FALSE(result.edges[wrong03].kept);
+  EXPECT_TRUE(result.edges[FindEdge(problem, 0, 1)].kept);
+  EXPECT_TRUE(result.edges[FindEdge(problem, 1, 2)].kept);
+  EXPECT_FALSE(result.excluded[0]);
+  EXPECT_EQ(result.part_of_community[0], result.part_of_community[1]);
+  EXPECT_EQ(result.part_of_community[2], result.part_of_community[1]);
+  // Community 3, small and in doubt, is left with one edge after its wrong
+  // one goes: it leaves, as before.
+  EXPECT_TRUE(result.excluded[3]);
+  const Sim3d gauge = Inverse(problem.world_from_community[0]);
+  for (const int c : {1, 2}) {
+    const Sim3d truth = gauge * problem.world_from_community[c];
+    EXPECT_LT(RadToDeg(result.world_from_community[c].rotation.angularDistance(
+                  truth.rotation)),
+              1e-6)
+        << c;
+  }
+
+  SimilarityAveragingOptions all_at_once;
+  all_at_once.reject_worst_first = false;
+  const SimilarityAveragingResult at_once =
+      AverageSimilarities(communities, problem.edges, all_at_once);
+  EXPECT_TRUE(at_once.excluded[0]);
+  EXPECT_FALSE(at_once.edges[FindEdge(problem, 0, 1)].kept);
+}
+
 TEST(AverageSimilarities, BridgeWithoutSharedImagesNeedsFullSupport) {
   // A path 0 - 1 - 2 of sound communities; the edge 1-2 has no shared image
   // (its borrowed images were not registered), as a link made only of wrong
