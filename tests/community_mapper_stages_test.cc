@@ -12,7 +12,6 @@
 #include "colmap_ext/util/testing.h"
 
 #include "colmap/geometry/sim3.h"
-
 #include "colmap/scene/database.h"
 #include "colmap/util/misc.h"
 
@@ -353,18 +352,17 @@ TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
       RestrictToImages(first_ids, std::make_shared<Reconstruction>(community));
   const std::shared_ptr<Reconstruction> second =
       RestrictToImages(second_ids, std::make_shared<Reconstruction>(community));
-  second->Transform(Sim3d(
-      2.5,
-      Eigen::Quaterniond(Eigen::AngleAxisd(0.6, Eigen::Vector3d(1, 2, 3)
-                                                    .normalized())),
-      Eigen::Vector3d(4, -7, 2)));
+  second->Transform(Sim3d(2.5,
+                          Eigen::Quaterniond(Eigen::AngleAxisd(
+                              0.6, Eigen::Vector3d(1, 2, 3).normalized())),
+                          Eigen::Vector3d(4, -7, 2)));
   int num_second_own = 0;
   for (const std::string& name : plan.communities[0].own_image_names) {
     const Image* image = second->FindImageWithName(name);
-    num_second_own +=
-        image != nullptr && image->IsRegistered() && !first_ids.count(image->ImageId())
-            ? 1
-            : 0;
+    num_second_own += image != nullptr && image->IsRegistered() &&
+                              !first_ids.count(image->ImageId())
+                          ? 1
+                          : 0;
   }
   ASSERT_GE(num_second_own, 10);
 
@@ -381,8 +379,8 @@ TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
                                    JoinPaths(out, file));
     }
     for (int c = 0; c < plan.NumCommunities(); ++c) {
-      CommunityRecord record = CommunityRecordFromText(
-          ReadTextFile(one_go.CommunityRecordPath(c)));
+      CommunityRecord record =
+          CommunityRecordFromText(ReadTextFile(one_go.CommunityRecordPath(c)));
       // Only community 0's second model, if any, takes part here.
       record.num_other_models = 0;
       if (c == 0) {
@@ -391,8 +389,8 @@ TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
         record.num_models = 2;
         record.mean_reprojection_error = first->ComputeMeanReprojectionError();
         if (keep_second) {
-          WriteReconstructionAtomically(*second,
-                                        workspace.CommunityOtherModelPath(0, 1));
+          WriteReconstructionAtomically(
+              *second, workspace.CommunityOtherModelPath(0, 1));
           record.num_other_models = 1;
         }
       } else {
@@ -430,8 +428,7 @@ TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
 
   // Without the second model, its images are registered one by one.
   const std::string without_log = merge("largest-only", /*keep_second=*/false);
-  EXPECT_GE(NumNewlyRegistered(without_log), num_second_own / 2)
-      << without_log;
+  EXPECT_GE(NumNewlyRegistered(without_log), num_second_own / 2) << without_log;
 }
 
 }  // namespace

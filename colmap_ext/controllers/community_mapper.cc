@@ -84,14 +84,14 @@ CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
   return groups;
 }
 
-// Each other model that community `record.community_id`'s mapper made (as
-// its stage wrote them into `workspace`) and that registered at least
-// `min_model_size` of the community's own images that no larger model of it
-// taking part did becomes an extra community, numbered after those in `models`, which
-// owns those images (the community keeps the others): its shape is the
-// mapper's, joined by a similarity as any community's, instead of its
-// images being registered anew one by one into the merged model. Its report
-// and origin are added to `summary`.
+// Community `record.community_id`'s other models, as its stage wrote them
+// into `workspace` (largest first), each become an extra community if they
+// registered at least `min_model_size` of the community's own images that
+// no larger model of it taking part did. The extra community, numbered after
+// those in `models`, owns those images (the community keeps the others):
+// its shape is the mapper's, joined by a similarity as any community's,
+// instead of its images being registered anew one by one into the merged
+// model. Its report and origin are added to `summary`.
 void AddExtraCommunities(const CommunityWorkspace& workspace,
                          const CommunityRecord& record,
                          const int min_model_size,
@@ -632,13 +632,11 @@ bool CommunityMapperController::IsReconstructed(const int community_id) const {
   }
   try {
     const CommunityRecord record = CommunityRecordFromText(ReadTextFile(path));
-    bool has_models =
-        record.num_registered == 0 ||
-        IsModelDir(workspace_.CommunityModelPath(community_id));
+    bool has_models = record.num_registered == 0 ||
+                      IsModelDir(workspace_.CommunityModelPath(community_id));
     for (int index = 1; index <= record.num_other_models; ++index) {
-      has_models = has_models &&
-                   IsModelDir(workspace_.CommunityOtherModelPath(community_id,
-                                                                 index));
+      has_models = has_models && IsModelDir(workspace_.CommunityOtherModelPath(
+                                     community_id, index));
     }
     return record.community_id == community_id &&
            record.database_fingerprint == plan_.database_fingerprint &&
@@ -1213,8 +1211,8 @@ std::string CommunityMapperController::SummaryToText(const Summary& summary) {
   text += StringPrintf("num_communities %d\n",
                        static_cast<int>(summary.community_sizes.size()));
   text += "community_sizes" + join(summary.community_sizes) + "\n";
-  text += "extra_community_origins" + join(summary.extra_community_origins) +
-          "\n";
+  text +=
+      "extra_community_origins" + join(summary.extra_community_origins) + "\n";
   text += "reconstructed_communities" +
           join(summary.reconstructed_communities) + "\n";
   text += "reused_communities" + join(summary.reused_communities) + "\n";

@@ -115,7 +115,7 @@ std::string CommunityWorkspace::CommunityModelPath(
 }
 
 std::string CommunityWorkspace::CommunityOtherModelPath(const int community_id,
-                                                      const int index) const {
+                                                        const int index) const {
   return JoinPaths(CommunitiesDir(),
                    std::to_string(community_id) + "." + std::to_string(index));
 }

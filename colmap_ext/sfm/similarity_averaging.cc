@@ -560,8 +560,7 @@ SimilarityAveragingResult AverageSimilarities(
         if (!finite || !options.reject_worst_first) {
           to_reject.push_back(e);
         } else {
-          const SimilarityAveragingResult::EdgeReport& report =
-              result.edges[e];
+          const SimilarityAveragingResult::EdgeReport& report = result.edges[e];
           const double excess = std::max(
               {report.rotation_residual_deg / options.max_rotation_residual_deg,
                report.log_scale_residual / options.max_log_scale_residual,

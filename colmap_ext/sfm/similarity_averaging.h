@@ -27,13 +27,15 @@
 //
 // Afterwards, edges whose residuals stay large (rotation, scale ratio, or
 // translation relative to the spread of the edge's correspondences) are
-// reported and left out, and the averaging is repeated. Before that, a
-// disagreement that is drift rather than a fault is told apart: if every
-// edge beyond the bounds is confirmed by the images its two communities
-// both registered, the part is averaged again in least squares (every edge
-// alike, translations in units of their spreads), which spreads a long
-// loop's gap over all its edges; if that brings every edge within the
-// bounds, that solution stands (`spread_cycle_drift`). The weaker
+// reported and left out, the one furthest beyond the bounds in each part
+// first, and the averaging is repeated (wrong edges pull the solution, so
+// that right ones next to them can look wrong until they are out). Before
+// that, a disagreement that is drift rather than a fault is told apart: if
+// every edge beyond the bounds is confirmed by the images its two
+// communities both registered, the part is averaged again in least squares
+// (every edge alike, translations in units of their spreads), which spreads
+// a long loop's gap over all its edges; if that brings every edge within
+// the bounds, that solution stands (`spread_cycle_drift`). The weaker
 // community of a rejected edge leaves the merge altogether if its model is
 // in doubt or it is small and fewer than two kept edges confirm it (its
 // images can still be registered into the merged model later): a community
@@ -136,9 +138,9 @@ struct SimilarityAveragingOptions {
   // by the largest factor (wrong edges distort the averaging, so that right
   // ones next to them can look wrong until they are out), and a community in
   // doubt but not small whose one remaining edge all its shared images
-  // confirm (at least min_num_confirming_shared_images) stays; there are then as many rounds as edges, at most (but 0
-  // still keeps every edge). False: every edge beyond the bounds goes at
-  // once.
+  // confirm (at least min_num_confirming_shared_images) stays; there are then
+  // as many rounds as edges, at most (but 0 still keeps every edge). False:
+  // every edge beyond the bounds goes at once.
   bool reject_worst_first = true;
 
   // Drift on a long cycle: where the L1 averaging of a part leaves edges

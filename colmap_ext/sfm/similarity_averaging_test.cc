@@ -585,7 +585,8 @@ TEST(AverageSimilarities, EdgeContradictedBySharedImagesIsLeftOut) {
 // degrees (a symmetric facade). Rejecting every edge beyond the bounds at
 // once also took its right link, whose translation the wrong ones had
 // pulled off, and the community left the merge.
-TEST(AverageSimilarities, WorstEdgeGoesFirstAndAConfirmedEdgeKeepsItsCommunity) {
+TEST(AverageSimilarities,
+     WorstEdgeGoesFirstAndAConfirmedEdgeKeepsItsCommunity) {
   Problem problem = MakeCycle({40, 39, 31, 15}, 40);
   const Problem complete = MakeProblem(4, 0, Noise(), 0, 40);
   const int edge02 = FindEdge(complete, 0, 2);
@@ -596,11 +597,10 @@ TEST(AverageSimilarities, WorstEdgeGoesFirstAndAConfirmedEdgeKeepsItsCommunity) 
   const auto flip = [](RelativeSimilarity* edge,
                        const double angle_deg,
                        const Eigen::Vector3d& axis) {
-    const Sim3d wrong(
-        1.1,
-        Eigen::Quaterniond(
-            Eigen::AngleAxisd(DegToRad(angle_deg), axis.normalized())),
-        Eigen::Vector3d(3, 0, 0));
+    const Sim3d wrong(1.1,
+                      Eigen::Quaterniond(Eigen::AngleAxisd(DegToRad(angle_deg),
+                                                           axis.normalized())),
+                      Eigen::Vector3d(3, 0, 0));
     edge->second_from_first = wrong * edge->second_from_first;
     for (Eigen::Vector3d& point : edge->points2) {
       point = wrong * point;
