@@ -274,6 +274,17 @@ bool WithinBounds(const SimilarityAveragingResult::EdgeReport& report,
              options.max_relative_translation_residual;
 }
 
+// How far a finite report is beyond the bounds: its largest residual as a
+// multiple of that residual's bound (above 1: beyond).
+double BoundsExcess(const SimilarityAveragingResult::EdgeReport& report,
+                    const SimilarityAveragingOptions& options) {
+  return std::max(
+      {report.rotation_residual_deg / options.max_rotation_residual_deg,
+       report.log_scale_residual / options.max_log_scale_residual,
+       report.relative_translation_residual /
+           options.max_relative_translation_residual});
+}
+
 // Whether the L1 solution of a part leaves edges beyond the bounds that are
 // all confirmed by their shared images, and the least squares solution
 // (which spreads a cycle's disagreement over its edges) brings every edge
@@ -560,12 +571,7 @@ SimilarityAveragingResult AverageSimilarities(
         if (!finite || !options.reject_worst_first) {
           to_reject.push_back(e);
         } else {
-          const SimilarityAveragingResult::EdgeReport& report = result.edges[e];
-          const double excess = std::max(
-              {report.rotation_residual_deg / options.max_rotation_residual_deg,
-               report.log_scale_residual / options.max_log_scale_residual,
-               report.relative_translation_residual /
-                   options.max_relative_translation_residual});
+          const double excess = BoundsExcess(result.edges[e], options);
           auto& worst =
               worst_of_part
                   .emplace(component[relative_similarities[e].community1],
