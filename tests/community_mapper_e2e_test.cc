@@ -479,11 +479,16 @@ std::string RunOnSuiteScene(const Scene& scene,
 // Where no similarity joins two communities (here: none has the support
 // asked for), the merged model still registers the other community's
 // images, as colmap mapper registers images into the model it grows: one
-// model of (nearly) all images, not one per community.
+// model of (nearly) all images, not one per community. The other
+// communities' models join as blocks through the images they share with
+// the merged model.
 TEST_F(CommunityMapperEndToEnd, ImagesOfAnUnjoinedPartJoinTheLargerModel) {
   std::string log;
   const std::string output_path = RunOnSuiteScene(
       *scene_, "--CommunityMapper.pairwise_min_num_inliers 1000000", &log);
+  EXPECT_NE(log.find("of an offered community model as one block"),
+            std::string::npos)
+      << log;
   const std::string summary = ReadFile(JoinPaths(output_path, "summary.txt"));
   ASSERT_NE(summary.find("num_kept_similarities 0\n"), std::string::npos)
       << summary;

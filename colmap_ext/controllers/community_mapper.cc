@@ -181,7 +181,9 @@ int MostCounted(const std::map<int, size_t>& counts) {
 // (images of communities without a model or that left the merge, and of
 // parts offered to this one, which the refinement tries to register). Own
 // images in `taken_image_ids` (registered by an earlier part's model) are
-// left out. The communities' own models are consumed. Adds the seconds
+// left out. `offered_models` are the models of the communities of parts
+// offered to this one, which the refinement registers as blocks where it
+// can. The communities' own models are consumed. Adds the seconds
 // spent in the refinement to `refinement_seconds`.
 std::shared_ptr<Reconstruction> MergePart(
     const CommunityMapperController::Options& options,
@@ -193,6 +195,7 @@ std::shared_ptr<Reconstruction> MergePart(
     const std::unordered_set<image_t>& taken_image_ids,
     const std::unordered_set<image_pair_t>& false_pairs,
     const ViewGraph& view_graph,
+    const std::vector<std::shared_ptr<const Reconstruction>>& offered_models,
     Models* models,
     double* refinement_seconds) {
   LOG(INFO) << "Merging communities" << [&] {
@@ -347,6 +350,7 @@ std::shared_ptr<Reconstruction> MergePart(
                         options.incremental_options,
                         load_correspondences,
                         community_of_image,
+                        offered_models,
                         merged);
   *refinement_seconds += timer.ElapsedSeconds();
   LogMemory("the refinement");
@@ -1003,6 +1007,8 @@ bool CommunityMapperController::Merge() {
     offered_to_part[part_and_counts.first] =
         MostCounted(part_and_counts.second);
   }
+  // The communities with a model whose images are offered to each part.
+  std::map<int, std::vector<int>> offered_communities_of_part;
   for (const auto& part_and_target : offered_to_part) {
     const int part = part_and_target.first;
     LOG(INFO) << StringPrintf(
@@ -1023,6 +1029,11 @@ bool CommunityMapperController::Merge() {
          target = offered_to_part.find(target->second)) {
       unmodelled_images_of_part[target->second].insert(part_image_names.begin(),
                                                        part_image_names.end());
+      for (int c = 0; c < num_communities; ++c) {
+        if (models[c] && averaging.part_of_community[c] == part) {
+          offered_communities_of_part[target->second].push_back(c);
+        }
+      }
     }
   }
   // Images an earlier part's model registered.
@@ -1108,6 +1119,14 @@ bool CommunityMapperController::Merge() {
       merged_models.push_back(std::move(model));
       continue;
     }
+    // Offered parts come after the part they are offered to: their models
+    // are still there.
+    std::vector<std::shared_ptr<const Reconstruction>> offered_models;
+    for (const int c : offered_communities_of_part[part]) {
+      if (models[c]) {
+        offered_models.push_back(models[c]);
+      }
+    }
     try {
       merged_models.push_back(MergePart(options_,
                                         part_communities,
@@ -1118,6 +1137,7 @@ bool CommunityMapperController::Merge() {
                                         registered_image_ids,
                                         false_pairs,
                                         view_graph,
+                                        offered_models,
                                         &models,
                                         &refinement_seconds));
       add_registered_images(*merged_models.back());

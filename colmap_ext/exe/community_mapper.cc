@@ -125,6 +125,13 @@ bool CheckCommandOptions(const CommunityMapperCommand& command) {
         options.pose_graph.min_num_shared_points,
         options.pose_graph.max_num_neighbors));
   }
+  if (options.refinement.block_registration.min_num_shared_images < 1) {
+    fail(StringPrintf(
+        "--CommunityMapper.block_min_num_shared_images (%d) must be "
+        "positive; --CommunityMapper.register_offered_blocks 0 registers "
+        "offered communities image by image.",
+        options.refinement.block_registration.min_num_shared_images));
+  }
   if (valid && !options.Check()) {
     fail("Invalid option values (see the check that failed above).");
   }
@@ -697,6 +704,15 @@ void ParseCommand(int argc,
   add("register_remaining_images",
       &mapper_options.refinement.register_remaining_images,
       "try to register, in the merged model, images no community registered");
+  add("register_offered_blocks",
+      &mapper_options.refinement.register_offered_blocks,
+      "register the model of a community that no kept similarity joins as "
+      "one block, through the images the merged model registers in common "
+      "with it, instead of image by image");
+  add("block_min_num_shared_images",
+      &mapper_options.refinement.block_registration.min_num_shared_images,
+      "images the merged model and an offered community model must share "
+      "before the model is registered as a block");
   add("robust_first_adjustment",
       &mapper_options.refinement.robust_first_adjustment,
       "align the merged model's cameras under a robust loss");

@@ -410,6 +410,7 @@ bool MergedModelRefinementOptions::Check() const {
   CHECK_OPTION_GE(dense_solver_min_density, 0);
   CHECK_OPTION_GE(function_tolerance, 0);
   CHECK_OPTION_GT(initial_trust_region_radius, 0);
+  CHECK_OPTION(block_registration.Check());
   return true;
 }
 
@@ -419,6 +420,7 @@ MergedModelRefinementSummary RefineMergedModel(
     const std::function<std::shared_ptr<const DatabaseCache>()>&
         load_correspondences,
     const std::unordered_map<image_t, int>& community_of_image,
+    const std::vector<std::shared_ptr<const Reconstruction>>& offered_models,
     std::shared_ptr<Reconstruction> reconstruction) {
   THROW_CHECK(options.Check());
   THROW_CHECK(mapper_options.Check());
@@ -477,7 +479,59 @@ MergedModelRefinementSummary RefineMergedModel(
   // more points and better poses can admit images that failed before (each
   // image at most Mapper.max_reg_trials times per loading of the
   // correspondences).
+  // An offered community model is registered as a block once the merged
+  // model shares enough images with it (before any image is registered one
+  // by one, and after each); each model once.
   // Returns the number of images registered.
+  std::vector<bool> block_registered(offered_models.size(), false);
+  // The shared images of the last try (a try with no new one is not
+  // repeated).
+  std::vector<size_t> num_tried_shared_images(offered_models.size(), 0);
+  const auto register_offered_blocks = [&]() {
+    size_t num_registered = 0;
+    for (size_t k = 0; k < offered_models.size(); ++k) {
+      if (block_registered[k] || !options.register_offered_blocks) {
+        continue;
+      }
+      const Reconstruction& model = *offered_models[k];
+      size_t num_shared_images = 0;
+      for (const image_t image_id : model.RegImageIds()) {
+        num_shared_images += reconstruction->ExistsImage(image_id) &&
+                             reconstruction->IsImageRegistered(image_id);
+      }
+      if (num_shared_images == num_tried_shared_images[k]) {
+        continue;
+      }
+      num_tried_shared_images[k] = num_shared_images;
+      const BlockRegistration block = EstimateBlockRegistration(
+          model, *reconstruction, options.block_registration);
+      if (!block.success) {
+        continue;
+      }
+      block_registered[k] = true;
+      ApplyBlockRegistration(model, block, reconstruction.get());
+      // The mapper learns of the images as registered as when it begins a
+      // reconstruction (its per-camera counts); then they are triangulated
+      // with the images registered before.
+      mapper->EndReconstruction(/*discard=*/false);
+      mapper->BeginReconstruction(reconstruction);
+      for (const image_t image_id : block.image_ids) {
+        mapper->TriangulateImage(triangulation, image_id);
+      }
+      num_registered += block.image_ids.size();
+      summary.num_block_registered_images +=
+          static_cast<int>(block.image_ids.size());
+      LOG(INFO) << StringPrintf(
+          "Registered %d images of an offered community model as one block, "
+          "through %d images both registered (similarity from %d of %d "
+          "points)",
+          static_cast<int>(block.image_ids.size()),
+          block.num_shared_images,
+          block.num_inliers,
+          block.num_correspondences);
+    }
+    return num_registered;
+  };
   const auto register_remaining_images = [&](const bool log_none) {
     if (!options.register_remaining_images) {
       return size_t{0};
@@ -485,6 +539,7 @@ MergedModelRefinementSummary RefineMergedModel(
     Timer registration_timer;
     registration_timer.Start();
     const size_t num_reg_images_before = reconstruction->NumRegImages();
+    register_offered_blocks();
     while (true) {
       bool registered = false;
       for (const image_t image_id : mapper->FindNextImages(incremental)) {
@@ -498,6 +553,7 @@ MergedModelRefinementSummary RefineMergedModel(
               triangulation,
               image_id);
           registered = true;
+          register_offered_blocks();
           break;  // The next image is chosen with this one's points.
         }
       }

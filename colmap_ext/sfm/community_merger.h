@@ -18,6 +18,7 @@
 
 #pragma once
 
+#include "colmap_ext/sfm/block_registration.h"
 #include "colmap_ext/sfm/reduced_bundle_adjustment.h"
 
 #include "colmap/controllers/incremental_mapper.h"
@@ -73,6 +74,16 @@ struct MergedModelRefinementOptions {
   // of the correspondences); a round that registered images is followed by
   // another.
   bool register_remaining_images = true;
+
+  // Models of communities whose images are offered to this refinement
+  // (parts that no kept similarity joins to this one) are registered as one
+  // block each, through the images the merged model registers in common
+  // with them (block_registration.h), instead of image by image; their
+  // images the block does not hold are still registered one by one. On
+  // South Building (a community of 24 images whose only links were
+  // dropped) ...
+  bool register_offered_blocks = true;
+  BlockRegistrationOptions block_registration;
 
   // The refinement has three steps. (1) Alignment, before the
   // correspondences are loaded: a bundle adjustment of all cameras on a
@@ -209,6 +220,8 @@ double CameraCovisibilityDensity(const Reconstruction& reconstruction);
 
 struct MergedModelRefinementSummary {
   int num_newly_registered_images = 0;
+  // Of those, registered as blocks of offered community models.
+  int num_block_registered_images = 0;
   int num_filtered_images = 0;
   double initial_mean_reprojection_error = 0.0;
   double final_mean_reprojection_error = 0.0;
@@ -222,13 +235,16 @@ struct MergedModelRefinementSummary {
 // community of their own). `load_correspondences` returns the database
 // cache of the model's images; it is called after the alignment and, with
 // `reload_correspondences`, again after every adjustment round; the cache
-// is released before the last adjustment.
+// is released before the last adjustment. `offered_models` are the models
+// (each in its own frame) of communities whose images are offered to the
+// refinement, registered as blocks with `register_offered_blocks`.
 MergedModelRefinementSummary RefineMergedModel(
     const MergedModelRefinementOptions& options,
     const IncrementalMapperOptions& mapper_options,
     const std::function<std::shared_ptr<const DatabaseCache>()>&
         load_correspondences,
     const std::unordered_map<image_t, int>& community_of_image,
+    const std::vector<std::shared_ptr<const Reconstruction>>& offered_models,
     std::shared_ptr<Reconstruction> reconstruction);
 
 }  // namespace colmap

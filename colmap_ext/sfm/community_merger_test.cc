@@ -13,20 +13,6 @@
 namespace colmap {
 namespace {
 
-// The ground truth seen by the given images only, in its own frame.
-Reconstruction CommunityModel(const Reconstruction& ground_truth,
-                              const std::set<image_t>& image_ids,
-                              const Sim3d& community_from_world) {
-  Reconstruction model = ground_truth;
-  for (const image_t image_id : ground_truth.RegImageIds()) {
-    if (image_ids.count(image_id) == 0) {
-      model.DeRegisterImage(image_id);
-    }
-  }
-  model.Transform(community_from_world);
-  return model;
-}
-
 TEST(CameraCovisibilityDensity, CountsThePairsOfImagesThatSeeACommonPoint) {
   Reconstruction reconstruction;
   reconstruction.AddCamera(

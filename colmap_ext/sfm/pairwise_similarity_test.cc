@@ -1,6 +1,7 @@
 #include "colmap_ext/sfm/pairwise_similarity.h"
 
 #include "colmap_ext/scene/synthetic_scene.h"
+#include "colmap_ext/util/testing.h"
 
 #include "colmap/math/math.h"
 
@@ -11,28 +12,6 @@
 
 namespace colmap {
 namespace {
-
-// The ground truth restricted to `image_ids`: other images deregistered,
-// points kept where at least two of the images observe them (tracks cut to
-// those), then moved into the community's own frame by
-// community_from_world.
-Reconstruction CommunityModel(const Reconstruction& ground_truth,
-                              const std::set<image_t>& image_ids,
-                              const Sim3d& community_from_world) {
-  Reconstruction model = ground_truth;
-  for (const image_t image_id : ground_truth.RegImageIds()) {
-    if (image_ids.count(image_id) == 0) {
-      model.DeRegisterImage(image_id);
-    }
-  }
-  for (const point3D_t point3D_id : model.Point3DIds()) {
-    if (model.Point3D(point3D_id).track.Length() < 2) {
-      model.DeletePoint3D(point3D_id);
-    }
-  }
-  model.Transform(community_from_world);
-  return model;
-}
 
 // For every pair of images of the two groups that observe common points, the
 // keypoint matches a matcher would find.

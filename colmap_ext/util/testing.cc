@@ -55,4 +55,18 @@ std::string ShellQuote(const std::string& text) {
   return quoted + "'";
 }
 
+Reconstruction CommunityModel(const Reconstruction& ground_truth,
+                              const std::set<image_t>& image_ids,
+                              const Sim3d& model_from_world) {
+  Reconstruction model = ground_truth;
+  for (const image_t image_id : ground_truth.RegImageIds()) {
+    if (image_ids.count(image_id) == 0) {
+      // Deletes the points left with fewer than two observations.
+      model.DeRegisterImage(image_id);
+    }
+  }
+  model.Transform(model_from_world);
+  return model;
+}
+
 }  // namespace colmap

@@ -1,0 +1,141 @@
+#include "colmap_ext/sfm/block_registration.h"
+
+#include "colmap_ext/scene/synthetic_scene.h"
+#include "colmap_ext/util/testing.h"
+
+#include "colmap/geometry/pose.h"
+#include "colmap/math/math.h"
+
+#include <set>
+
+#include <gtest/gtest.h>
+
+namespace colmap {
+namespace {
+
+// Two landmarks joined by a walkway: the merged model holds landmark 0 and
+// the walkway in the world frame and `num_shared` images of landmark 1
+// (registered one by one, say); the community model holds landmark 1 in a
+// frame of its own.
+class BlockRegistrationTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    SyntheticSceneOptions options;
+    options.num_clusters = 2;
+    options.num_images_per_cluster = 20;
+    options.num_images_per_link = 10;
+    options.close_loop = false;
+    options.keypoint_noise = 0;
+    options.single_camera = false;
+    options.seed = 7;
+    SynthesizeCommunityScene(options, &scene_, /*database=*/nullptr);
+    for (const auto& image_and_cluster : scene_.image_cluster) {
+      (image_and_cluster.second == 1 ? community_images_ : merged_images_)
+          .insert(image_and_cluster.first);
+    }
+    model_from_world_ = Sim3d(
+        0.2,
+        Eigen::Quaterniond(Eigen::AngleAxisd(2.0, Eigen::Vector3d::UnitY())),
+        Eigen::Vector3d(5, -3, 8));
+    model_ = CommunityModel(
+        scene_.ground_truth, community_images_, model_from_world_);
+  }
+
+  // The merged model with the first `num_shared` images of landmark 1.
+  Reconstruction Merged(const int num_shared) const {
+    std::set<image_t> image_ids = merged_images_;
+    auto it = community_images_.begin();
+    for (int i = 0; i < num_shared; ++i, ++it) {
+      image_ids.insert(*it);
+    }
+    return CommunityModel(scene_.ground_truth, image_ids, Sim3d());
+  }
+
+  SyntheticScene scene_;
+  std::set<image_t> merged_images_;
+  std::set<image_t> community_images_;
+  Sim3d model_from_world_;
+  Reconstruction model_;
+};
+
+TEST_F(BlockRegistrationTest, PlacesTheModelsOtherImagesAsTheGroundTruth) {
+  Reconstruction merged = Merged(3);
+  // The merged model knows only the database's prior of the community's
+  // cameras; the model refined them.
+  for (const image_t image_id : community_images_) {
+    if (!merged.IsImageRegistered(image_id)) {
+      merged.Camera(merged.Image(image_id).CameraId()).params[0] *= 1.3;
+    }
+  }
+  const BlockRegistration block =
+      EstimateBlockRegistration(model_, merged, BlockRegistrationOptions());
+  ASSERT_TRUE(block.success);
+  EXPECT_EQ(block.num_shared_images, 3);
+  EXPECT_EQ(block.image_ids.size(), community_images_.size() - 3);
+  EXPECT_GT(block.num_inliers, 100);
+  EXPECT_NEAR(
+      block.merged_from_model.scale * model_from_world_.scale, 1.0, 1e-6);
+
+  const size_t num_registered = merged.NumRegImages();
+  ApplyBlockRegistration(model_, block, &merged);
+  EXPECT_EQ(merged.NumRegImages(), num_registered + block.image_ids.size());
+  for (const image_t image_id : community_images_) {
+    const Image& image = merged.Image(image_id);
+    const Image& truth = scene_.ground_truth.Image(image_id);
+    ASSERT_TRUE(image.IsRegistered());
+    EXPECT_LT((image.ProjectionCenter() - truth.ProjectionCenter()).norm(),
+              1e-6);
+    EXPECT_LT(RadToDeg(image.CamFromWorld().rotation.angularDistance(
+                  truth.CamFromWorld().rotation)),
+              1e-6);
+    EXPECT_EQ(merged.Camera(image.CameraId()).params,
+              scene_.ground_truth.Camera(image.CameraId()).params)
+        << "image " << image_id;
+  }
+}
+
+TEST_F(BlockRegistrationTest, TooFewSharedImagesRegisterNothing) {
+  const BlockRegistration block =
+      EstimateBlockRegistration(model_, Merged(2), BlockRegistrationOptions());
+  EXPECT_FALSE(block.success);
+  EXPECT_EQ(block.num_shared_images, 2);
+
+  BlockRegistrationOptions options;
+  options.min_num_shared_images = 2;
+  EXPECT_TRUE(EstimateBlockRegistration(model_, Merged(2), options).success);
+}
+
+// A shared image that the merged model placed wrongly (turned by 30 degrees
+// about its centre, as a wrong registration leaves it) contradicts every
+// transform its neighbours support: no block is registered through it.
+TEST_F(BlockRegistrationTest, AContradictingSharedImageRegistersNothing) {
+  Reconstruction merged = Merged(4);
+  const image_t wrong_image_id = *community_images_.begin();
+  Image& wrong = merged.Image(wrong_image_id);
+  const Eigen::Vector3d center = wrong.ProjectionCenter();
+  const Eigen::Quaterniond turned =
+      wrong.CamFromWorld().rotation *
+      Eigen::Quaterniond(
+          Eigen::AngleAxisd(DegToRad(30.0), Eigen::Vector3d::UnitY()));
+  wrong.CamFromWorld() = Rigid3d(turned, -(turned * center));
+  ASSERT_LT((wrong.ProjectionCenter() - center).norm(), 1e-9);
+
+  const BlockRegistration block =
+      EstimateBlockRegistration(model_, merged, BlockRegistrationOptions());
+  EXPECT_EQ(block.num_shared_images, 4);
+  EXPECT_FALSE(block.success);
+}
+
+// Nothing left to register (the merged model holds all the model's images
+// already): no block, whatever the transform.
+TEST_F(BlockRegistrationTest, NothingLeftToRegister) {
+  const BlockRegistration block = EstimateBlockRegistration(
+      model_,
+      Merged(static_cast<int>(community_images_.size())),
+      BlockRegistrationOptions());
+  EXPECT_FALSE(block.success);
+  EXPECT_TRUE(block.image_ids.empty());
+}
+
+}  // namespace
+}  // namespace colmap
