@@ -1120,11 +1120,19 @@ bool CommunityMapperController::Merge() {
       continue;
     }
     // Offered parts come after the part they are offered to: their models
-    // are still there.
+    // are still there. Each keeps only its community's own images: those
+    // of its neighbours it registered came through cross-community pairs,
+    // which may be the repeated structure whose transform the merge
+    // rejected (two identical towers: the model registers its neighbour's
+    // images stacked on its own tower, and they agree with the stacking
+    // transform). A block then joins only through its own images that the
+    // refinement registered one by one.
     std::vector<std::shared_ptr<const Reconstruction>> offered_models;
     for (const int c : offered_communities_of_part[part]) {
       if (models[c]) {
-        offered_models.push_back(models[c]);
+        offered_models.push_back(RestrictToImages(
+            ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
+            models[c]));
       }
     }
     try {
