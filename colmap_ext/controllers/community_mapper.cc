@@ -433,6 +433,416 @@ void LogSummary(const CommunityMapperController::Summary& summary) {
   LOG(INFO) << StringPrintf("Peak memory: %.0f MB", summary.peak_memory_mb);
 }
 
+// The communities' models as their stage left them in `workspace` (none
+// for a community that registered nothing), the plan's first, then, with
+// `options.merge_other_models`, the extra communities (AddExtraCommunities),
+// with their paths; their reports go to `summary`.
+void ReadCommunityModels(const CommunityMapperController::Options& options,
+                         const CommunityWorkspace& workspace,
+                         const int num_plan_communities,
+                         CommunityImages* communities,
+                         Models* models_ptr,
+                         std::vector<std::string>* model_paths,
+                         CommunityMapperController::Summary* summary) {
+  Models& models = *models_ptr;
+  models.assign(num_plan_communities, nullptr);
+  model_paths->clear();
+  std::vector<CommunityRecord> records;
+  summary->community_reports.assign(num_plan_communities,
+                                    CommunityModelReport());
+  for (int c = 0; c < num_plan_communities; ++c) {
+    records.push_back(CommunityRecordFromText(
+        ReadTextFile(workspace.CommunityRecordPath(c))));
+    const CommunityRecord& record = records.back();
+    CommunityModelReport& report = summary->community_reports[c];
+    report.num_images = record.num_images;
+    report.num_registered = record.num_registered;
+    report.num_models = record.num_models;
+    report.mean_reprojection_error = record.mean_reprojection_error;
+    model_paths->push_back(workspace.CommunityModelPath(c));
+    if (record.num_registered > 0) {
+      models[c] = std::make_shared<Reconstruction>();
+      models[c]->Read(model_paths->back());
+    }
+  }
+  // Where a community's mapper made several models, the others take part
+  // as extra communities (AddExtraCommunities).
+  summary->extra_community_origins.clear();
+  for (int c = 0; c < num_plan_communities; ++c) {
+    if (models[c] && options.merge_other_models) {
+      AddExtraCommunities(workspace,
+                          records[c],
+                          options.incremental_options.min_model_size,
+                          communities,
+                          models_ptr,
+                          model_paths,
+                          summary);
+    }
+  }
+}
+
+// Where the merge offers images that no part of its own holds: to the part
+// whose refinement tries to register them.
+struct PartOffers {
+  // By part: names of the images offered to it (of communities without a
+  // model or that left the merge, and of the parts offered to it).
+  std::map<int, std::unordered_set<std::string>> extra_image_names_of_part;
+  // By part: the communities with a model whose part is offered to it
+  // (their models join as blocks where they can).
+  std::map<int, std::vector<int>> offered_communities_of_part;
+};
+
+// Judges every community's own model (JudgeCommunityModels: broken ones
+// leave the merge, doubtful ones count little) and averages the
+// similarities between them; logs each link's residuals and fate. Fills
+// the judgements and the kept links of `summary`.
+SimilarityAveragingResult JudgeAndAverage(
+    const CommunityMapperController::Options& options,
+    const std::vector<RelativeSimilarity>& similarities,
+    CommunityMapperController::Summary* summary) {
+  const int num_communities =
+      static_cast<int>(summary->community_reports.size());
+  summary->community_judgements =
+      JudgeCommunityModels(summary->community_reports, options.judgement);
+  std::vector<AveragedCommunity> averaged_communities(num_communities);
+  for (int c = 0; c < num_communities; ++c) {
+    const CommunityJudgement& judgement = summary->community_judgements[c];
+    averaged_communities[c].num_images =
+        summary->community_reports[c].num_registered;
+    averaged_communities[c].doubtful = judgement.doubtful;
+    averaged_communities[c].excluded = judgement.broken;
+    if (judgement.broken || judgement.doubtful) {
+      LOG(WARNING) << StringPrintf(
+          "Community %d is %s (%s)%s",
+          c,
+          judgement.broken ? "broken" : "in doubt",
+          judgement.reason.c_str(),
+          judgement.broken ? "" : ": it takes part with little weight.");
+    }
+  }
+  SimilarityAveragingResult averaging = AverageSimilarities(
+      averaged_communities, similarities, options.similarity_averaging);
+  summary->community_excluded = averaging.excluded;
+  for (size_t e = 0; e < similarities.size(); ++e) {
+    const auto& report = averaging.edges[e];
+    summary->num_kept_similarities += report.kept ? 1 : 0;
+    LOG(INFO) << StringPrintf(
+        "Communities %d-%d: residuals rotation %.3f deg, scale %.4f, "
+        "translation %.4f -> %s",
+        similarities[e].community1,
+        similarities[e].community2,
+        report.rotation_residual_deg,
+        report.log_scale_residual,
+        report.relative_translation_residual,
+        report.kept           ? "kept"
+        : report.contradicted ? "dropped before the averaging (the images "
+                                "both models registered contradict it)"
+        : report.unconfirmed  ? "dropped (on no cycle, and the images both "
+                                "models registered do not confirm it)"
+                              : "dropped");
+  }
+  return averaging;
+}
+
+// Communities that the averaging sent out of the merge lose their model
+// here (their images are offered to the merged models); returns those
+// whose model is not broken, which keep the images no merged model
+// registers (MergeParts).
+std::vector<int> SetAsideExcludedCommunities(
+    const std::vector<RelativeSimilarity>& similarities,
+    const SimilarityAveragingResult& averaging,
+    Models* models_ptr,
+    CommunityMapperController::Summary* summary) {
+  const int num_communities = static_cast<int>(models_ptr->size());
+  std::vector<int> set_aside_communities;
+  Models& models = *models_ptr;
+  for (int c = 0; c < num_communities; ++c) {
+    if (averaging.excluded[c]) {
+      bool unconfirmed = false;
+      for (size_t e = 0; e < similarities.size(); ++e) {
+        unconfirmed = unconfirmed || ((similarities[e].community1 == c ||
+                                       similarities[e].community2 == c) &&
+                                      averaging.edges[e].unconfirmed);
+      }
+      LOG(WARNING) << StringPrintf(
+          "Community %d leaves the merge: %s. Its images are offered to the "
+          "merged model.",
+          c,
+          summary->community_judgements[c].broken ? "its model is broken"
+          : summary->community_judgements[c].doubtful
+              ? (unconfirmed ? "nothing confirms its similarities and its "
+                               "model is in doubt"
+                             : "its similarities disagree with the other "
+                               "communities' and its model is in doubt")
+              : "its similarities disagree with the other communities' "
+                "and it is small");
+      if (!summary->community_judgements[c].broken) {
+        set_aside_communities.push_back(c);
+      }
+      models[c].reset();
+    }
+  }
+  return set_aside_communities;
+}
+
+// Where the images of communities without a model, and of parts that no
+// kept similarity joins to an earlier one, go (see PartOffers).
+PartOffers PlanPartOffers(const CommunityImages& communities,
+                          const CrossEdges& cross_edges,
+                          const Models& models,
+                          const SimilarityAveragingResult& averaging) {
+  const int num_communities = static_cast<int>(models.size());
+  PartOffers offers;
+  // The images of a community without a model are offered to the part its
+  // view-graph edges lead to most, whose refinement registers those it can.
+  std::map<int, std::map<int, size_t>> num_edges_to_part;
+  for (const auto& pair_and_edges : cross_edges) {
+    const int community1 = pair_and_edges.first.first;
+    const int community2 = pair_and_edges.first.second;
+    if (!models[community1] != !models[community2]) {
+      const int unmodelled = models[community1] ? community2 : community1;
+      const int modelled = models[community1] ? community1 : community2;
+      num_edges_to_part[unmodelled][averaging.part_of_community[modelled]] +=
+          pair_and_edges.second.size();
+    }
+  }
+  for (const auto& community_and_counts : num_edges_to_part) {
+    const int best_part = MostCounted(community_and_counts.second);
+    for (const image_t image_id :
+         communities.own_image_ids[community_and_counts.first]) {
+      offers.extra_image_names_of_part[best_part].insert(
+          communities.name_of_image.at(image_id));
+    }
+  }
+  // A part that no similarity joins to an earlier one (larger, or as large)
+  // it has view-graph edges to is offered to the earlier part it has the
+  // most edges to, as the incremental mapper would try to register its
+  // images into the model it grows: whether no transform was found or the
+  // link was dropped, the refinement registers them through their verified
+  // pairs (but those of rejected transforms) with the checks of
+  // IncrementalMapper::RegisterNextImage. Images that register there join
+  // that model; the part keeps only the others. A part offered to one that
+  // is itself offered further is offered there too (its images may join
+  // through the images that join).
+  std::map<int, std::map<int, size_t>> num_edges_between_parts;
+  for (const auto& pair_and_edges : cross_edges) {
+    const int community1 = pair_and_edges.first.first;
+    const int community2 = pair_and_edges.first.second;
+    if (!models[community1] || !models[community2]) {
+      continue;
+    }
+    const int part1 = averaging.part_of_community[community1];
+    const int part2 = averaging.part_of_community[community2];
+    if (part1 != part2) {
+      num_edges_between_parts[std::max(part1, part2)][std::min(part1, part2)] +=
+          pair_and_edges.second.size();
+    }
+  }
+  std::map<int, int> offered_to_part;
+  for (const auto& part_and_counts : num_edges_between_parts) {
+    offered_to_part[part_and_counts.first] =
+        MostCounted(part_and_counts.second);
+  }
+  for (const auto& part_and_target : offered_to_part) {
+    const int part = part_and_target.first;
+    LOG(INFO) << StringPrintf(
+        "No similarity joins part %d to an earlier part: its images are "
+        "offered to part %d's refinement",
+        part,
+        part_and_target.second);
+    std::vector<std::string> part_image_names;
+    for (int c = 0; c < num_communities; ++c) {
+      if (models[c] && averaging.part_of_community[c] == part) {
+        for (const image_t image_id : communities.own_image_ids[c]) {
+          part_image_names.push_back(communities.name_of_image.at(image_id));
+        }
+      }
+    }
+    for (auto target = offered_to_part.find(part);
+         target != offered_to_part.end();
+         target = offered_to_part.find(target->second)) {
+      offers.extra_image_names_of_part[target->second].insert(
+          part_image_names.begin(), part_image_names.end());
+      for (int c = 0; c < num_communities; ++c) {
+        if (models[c] && averaging.part_of_community[c] == part) {
+          offers.offered_communities_of_part[target->second].push_back(c);
+        }
+      }
+    }
+  }
+  return offers;
+}
+
+// Merges every part of the averaging (communities joined by kept
+// similarities) into one model (MergePart), largest parts first as the
+// averaging numbers them, each on the images no earlier part's model
+// registered plus those offered to it; a part left with fewer than two
+// images has no model, and a part of one community with nothing offered is
+// its model as it is. Then the set-aside communities keep, as models of
+// their own, the images no merged model registered (at least
+// Mapper.min_model_size of them). The models are consumed; the seconds
+// spent in the refinements are added to `refinement_seconds`.
+std::vector<std::shared_ptr<Reconstruction>> MergeParts(
+    const CommunityMapperController::Options& options,
+    const CommunityImages& communities,
+    const std::vector<RelativeSimilarity>& similarities,
+    const SimilarityAveragingResult& averaging,
+    PartOffers offers,
+    const std::vector<int>& set_aside_communities,
+    const std::unordered_set<image_pair_t>& false_pairs,
+    const ViewGraph& view_graph,
+    const std::vector<std::string>& model_paths,
+    Models* models_ptr,
+    double* refinement_seconds) {
+  Models& models = *models_ptr;
+  const int num_communities = static_cast<int>(models.size());
+  // Images an earlier part's model registered.
+  std::unordered_set<image_t> registered_image_ids;
+  const auto add_registered_images = [&](const Reconstruction& model) {
+    registered_image_ids.insert(model.RegImageIds().begin(),
+                                model.RegImageIds().end());
+  };
+  // Community c's model as its stage wrote it, with its own images that no
+  // earlier model registered.
+  const auto read_left_model = [&](const int c) {
+    auto model = std::make_shared<Reconstruction>();
+    model->Read(model_paths[c]);
+    return RestrictToImages(
+        ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
+        model);
+  };
+  std::vector<std::shared_ptr<Reconstruction>> merged_models;
+  for (int part = 0; part < averaging.NumParts(); ++part) {
+    std::vector<int> part_communities;
+    size_t num_left_images = 0;
+    for (int c = 0; c < num_communities; ++c) {
+      if (averaging.part_of_community[c] != part || !models[c]) {
+        continue;
+      }
+      part_communities.push_back(c);
+      size_t num_taken = 0;
+      for (const image_t image_id : models[c]->RegImageIds()) {
+        if (communities.own_image_ids[c].count(image_id) == 0) {
+          continue;
+        }
+        if (registered_image_ids.count(image_id)) {
+          ++num_taken;
+        } else {
+          ++num_left_images;
+        }
+      }
+      if (num_taken > 0) {
+        LOG(INFO) << StringPrintf(
+            "Community %d: %d of its own images are in an earlier part's "
+            "model already",
+            c,
+            static_cast<int>(num_taken));
+      }
+    }
+    for (const image_t image_id : registered_image_ids) {
+      const auto it = communities.name_of_image.find(image_id);
+      if (it != communities.name_of_image.end()) {
+        offers.extra_image_names_of_part[part].erase(it->second);
+      }
+    }
+    if (part_communities.empty()) {
+      continue;
+    }
+    if (num_left_images < 2 && offers.extra_image_names_of_part[part].empty()) {
+      LOG(WARNING) << StringPrintf(
+          "Part %d: fewer than 2 of its communities' own images are left to "
+          "it: no model for it.",
+          part);
+      for (const int c : part_communities) {
+        models[c].reset();
+      }
+      continue;
+    }
+    // A part of one community is taken as it is, unless images of other
+    // communities are offered to it.
+    if (part_communities.size() == 1 &&
+        offers.extra_image_names_of_part[part].empty()) {
+      const int c = part_communities[0];
+      std::shared_ptr<Reconstruction> model = RestrictToImages(
+          ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
+          models[c]);
+      models[c].reset();
+      if (model->NumRegImages() < 2) {
+        LOG(WARNING) << StringPrintf(
+            "Community %d, alone in its part, registered fewer than 2 of its "
+            "own images: no model for it.",
+            c);
+        continue;
+      }
+      add_registered_images(*model);
+      merged_models.push_back(std::move(model));
+      continue;
+    }
+    // Offered parts come after the part they are offered to: their models
+    // are still there. Each keeps only its community's own images: those
+    // of its neighbours it registered came through cross-community pairs,
+    // which may be the repeated structure whose transform the merge
+    // rejected (two identical towers: the model registers its neighbour's
+    // images stacked on its own tower, and they agree with the stacking
+    // transform). A block then joins only through its own images that the
+    // refinement registered one by one.
+    std::vector<std::shared_ptr<const Reconstruction>> offered_models;
+    for (const int c : offers.offered_communities_of_part[part]) {
+      if (models[c]) {
+        offered_models.push_back(RestrictToImages(
+            ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
+            models[c]));
+      }
+    }
+    try {
+      merged_models.push_back(MergePart(options,
+                                        part_communities,
+                                        communities,
+                                        similarities,
+                                        averaging,
+                                        offers.extra_image_names_of_part[part],
+                                        registered_image_ids,
+                                        false_pairs,
+                                        view_graph,
+                                        offered_models,
+                                        &models,
+                                        refinement_seconds));
+      add_registered_images(*merged_models.back());
+    } catch (const std::exception& error) {
+      // Nothing is lost: the part's communities, as their stage wrote them,
+      // become models of their own.
+      LOG(ERROR) << "Merging communities failed: " << error.what()
+                 << "; each of them is written as a model of its own.";
+      for (const int c : part_communities) {
+        std::shared_ptr<Reconstruction> model = read_left_model(c);
+        if (model->NumRegImages() >= 2) {
+          add_registered_images(*model);
+          merged_models.push_back(std::move(model));
+        }
+      }
+    }
+  }
+
+  // A community that left the merge keeps the images nobody registered as
+  // a model of its own, if there are as many as the incremental mapper
+  // keeps in a model (Mapper.min_model_size): it was in doubt or small.
+  for (const int c : set_aside_communities) {
+    std::shared_ptr<Reconstruction> model = read_left_model(c);
+    if (static_cast<int>(model->NumRegImages()) >=
+        options.incremental_options.min_model_size) {
+      LOG(INFO) << StringPrintf(
+          "Community %d left the merge: %d of its images that no merged model "
+          "registered keep its model, as a model of its own",
+          c,
+          static_cast<int>(model->NumRegImages()));
+      add_registered_images(*model);
+      merged_models.push_back(std::move(model));
+    }
+  }
+
+  return merged_models;
+}
+
 }  // namespace
 
 int CommunityMapperController::Options::MinNumMatches() const {
@@ -774,10 +1184,7 @@ bool CommunityMapperController::ReconstructCommunity(const int community_id) {
       community_id, GetEffectiveNumThreads(-1), &database_mutex);
 }
 
-bool CommunityMapperController::Merge() {
-  if (!LoadPlan()) {
-    return false;
-  }
+bool CommunityMapperController::CheckAllReconstructed() const {
   std::vector<int> missing;
   for (int c = 0; c < plan_.NumCommunities(); ++c) {
     if (!IsReconstructed(c)) {
@@ -800,6 +1207,13 @@ bool CommunityMapperController::Merge() {
     return false;
   }
 
+  return true;
+}
+
+bool CommunityMapperController::Merge() {
+  if (!LoadPlan() || !CheckAllReconstructed()) {
+    return false;
+  }
   // The merge gives the same model from the same community models, whatever
   // ran them and whichever thread merges.
   SetPRNGSeed(kDefaultPRNGSeed);
@@ -813,44 +1227,17 @@ bool CommunityMapperController::Merge() {
   CommunityImages communities = GroupImagesByCommunity(view_graph, plan_);
   summary_.community_of_image = communities.community_of_image;
 
-  // The communities, as their stage left them on disk.
-  const int num_plan_communities = plan_.NumCommunities();
-  Models models(num_plan_communities);
+  // The communities, as their stage left them on disk: the plan's, then the
+  // extra ones.
+  Models models;
   std::vector<std::string> model_paths;
-  std::vector<CommunityRecord> records;
-  summary_.community_reports.assign(num_plan_communities,
-                                    CommunityModelReport());
-  for (int c = 0; c < num_plan_communities; ++c) {
-    records.push_back(CommunityRecordFromText(
-        ReadTextFile(workspace_.CommunityRecordPath(c))));
-    const CommunityRecord& record = records.back();
-    CommunityModelReport& report = summary_.community_reports[c];
-    report.num_images = record.num_images;
-    report.num_registered = record.num_registered;
-    report.num_models = record.num_models;
-    report.mean_reprojection_error = record.mean_reprojection_error;
-    model_paths.push_back(workspace_.CommunityModelPath(c));
-    if (record.num_registered > 0) {
-      models[c] = std::make_shared<Reconstruction>();
-      models[c]->Read(model_paths[c]);
-    }
-  }
-  // Where a community's mapper made several models, the others take part
-  // as extra communities (AddExtraCommunities).
-  summary_.extra_community_origins.clear();
-  for (int c = 0; c < num_plan_communities; ++c) {
-    if (models[c] && options_.merge_other_models) {
-      AddExtraCommunities(workspace_,
-                          records[c],
-                          options_.incremental_options.min_model_size,
-                          &communities,
-                          &models,
-                          &model_paths,
-                          &summary_);
-    }
-  }
-  // The communities of the merge: the plan's, then the extra ones.
-  const int num_communities = static_cast<int>(models.size());
+  ReadCommunityModels(options_,
+                      workspace_,
+                      plan_.NumCommunities(),
+                      &communities,
+                      &models,
+                      &model_paths,
+                      &summary_);
 
   LogMemory("reading the community models");
   const CrossEdges cross_edges =
@@ -872,45 +1259,8 @@ bool CommunityMapperController::Merge() {
       community_similarities.false_pairs;
   summary_.num_estimated_similarities = static_cast<int>(similarities.size());
 
-  summary_.community_judgements =
-      JudgeCommunityModels(summary_.community_reports, options_.judgement);
-  std::vector<AveragedCommunity> averaged_communities(num_communities);
-  for (int c = 0; c < num_communities; ++c) {
-    const CommunityJudgement& judgement = summary_.community_judgements[c];
-    averaged_communities[c].num_images =
-        summary_.community_reports[c].num_registered;
-    averaged_communities[c].doubtful = judgement.doubtful;
-    averaged_communities[c].excluded = judgement.broken;
-    if (judgement.broken || judgement.doubtful) {
-      LOG(WARNING) << StringPrintf(
-          "Community %d is %s (%s)%s",
-          c,
-          judgement.broken ? "broken" : "in doubt",
-          judgement.reason.c_str(),
-          judgement.broken ? "" : ": it takes part with little weight.");
-    }
-  }
-  const SimilarityAveragingResult averaging = AverageSimilarities(
-      averaged_communities, similarities, options_.similarity_averaging);
-  summary_.community_excluded = averaging.excluded;
-  for (size_t e = 0; e < similarities.size(); ++e) {
-    const auto& report = averaging.edges[e];
-    summary_.num_kept_similarities += report.kept ? 1 : 0;
-    LOG(INFO) << StringPrintf(
-        "Communities %d-%d: residuals rotation %.3f deg, scale %.4f, "
-        "translation %.4f -> %s",
-        similarities[e].community1,
-        similarities[e].community2,
-        report.rotation_residual_deg,
-        report.log_scale_residual,
-        report.relative_translation_residual,
-        report.kept           ? "kept"
-        : report.contradicted ? "dropped before the averaging (the images "
-                                "both models registered contradict it)"
-        : report.unconfirmed  ? "dropped (on no cycle, and the images both "
-                                "models registered do not confirm it)"
-                              : "dropped");
-  }
+  const SimilarityAveragingResult averaging =
+      JudgeAndAverage(options_, similarities, &summary_);
   if (!false_pairs.empty()) {
     LOG(INFO) << StringPrintf(
         "%d image pairs between communities support only rejected "
@@ -921,33 +1271,8 @@ bool CommunityMapperController::Merge() {
   // images the merged models do not register keep their community's model,
   // as a model of its own (the incremental mapper too writes the models it
   // could not join). Read again from the workspace at the end.
-  std::vector<int> set_aside_communities;
-  for (int c = 0; c < num_communities; ++c) {
-    if (averaging.excluded[c]) {
-      bool unconfirmed = false;
-      for (size_t e = 0; e < similarities.size(); ++e) {
-        unconfirmed = unconfirmed || ((similarities[e].community1 == c ||
-                                       similarities[e].community2 == c) &&
-                                      averaging.edges[e].unconfirmed);
-      }
-      LOG(WARNING) << StringPrintf(
-          "Community %d leaves the merge: %s. Its images are offered to the "
-          "merged model.",
-          c,
-          summary_.community_judgements[c].broken ? "its model is broken"
-          : summary_.community_judgements[c].doubtful
-              ? (unconfirmed ? "nothing confirms its similarities and its "
-                               "model is in doubt"
-                             : "its similarities disagree with the other "
-                               "communities' and its model is in doubt")
-              : "its similarities disagree with the other communities' "
-                "and it is small");
-      if (!summary_.community_judgements[c].broken) {
-        set_aside_communities.push_back(c);
-      }
-      models[c].reset();
-    }
-  }
+  const std::vector<int> set_aside_communities =
+      SetAsideExcludedCommunities(similarities, averaging, &models, &summary_);
   summary_.phase_seconds.emplace_back("Similarity averaging",
                                       phase_timer.ElapsedSeconds());
   LOG(INFO) << StringPrintf("Similarity averaging: %.3fs (%s)",
@@ -956,230 +1281,19 @@ bool CommunityMapperController::Merge() {
 
   PrintHeading1("Merging the communities and bundle adjustment");
   phase_timer.Restart();
-  // The images of a community without a model are offered to the part its
-  // view-graph edges lead to most, whose refinement registers those it can.
-  std::map<int, std::map<int, size_t>> num_edges_to_part;
-  for (const auto& pair_and_edges : cross_edges) {
-    const int community1 = pair_and_edges.first.first;
-    const int community2 = pair_and_edges.first.second;
-    if (!models[community1] != !models[community2]) {
-      const int unmodelled = models[community1] ? community2 : community1;
-      const int modelled = models[community1] ? community1 : community2;
-      num_edges_to_part[unmodelled][averaging.part_of_community[modelled]] +=
-          pair_and_edges.second.size();
-    }
-  }
-  std::map<int, std::unordered_set<std::string>> unmodelled_images_of_part;
-  for (const auto& community_and_counts : num_edges_to_part) {
-    const int best_part = MostCounted(community_and_counts.second);
-    for (const image_t image_id :
-         communities.own_image_ids[community_and_counts.first]) {
-      unmodelled_images_of_part[best_part].insert(
-          communities.name_of_image.at(image_id));
-    }
-  }
-  // A part that no similarity joins to an earlier one (larger, or as large)
-  // it has view-graph edges to is offered to the earlier part it has the
-  // most edges to, as the incremental mapper would try to register its
-  // images into the model it grows: whether no transform was found or the
-  // link was dropped, the refinement registers them through their verified
-  // pairs (but those of rejected transforms) with the checks of
-  // IncrementalMapper::RegisterNextImage. Images that register there join
-  // that model; the part keeps only the others. A part offered to one that
-  // is itself offered further is offered there too (its images may join
-  // through the images that join).
-  std::map<int, std::map<int, size_t>> num_edges_between_parts;
-  for (const auto& pair_and_edges : cross_edges) {
-    const int community1 = pair_and_edges.first.first;
-    const int community2 = pair_and_edges.first.second;
-    if (!models[community1] || !models[community2]) {
-      continue;
-    }
-    const int part1 = averaging.part_of_community[community1];
-    const int part2 = averaging.part_of_community[community2];
-    if (part1 != part2) {
-      num_edges_between_parts[std::max(part1, part2)][std::min(part1, part2)] +=
-          pair_and_edges.second.size();
-    }
-  }
-  std::map<int, int> offered_to_part;
-  for (const auto& part_and_counts : num_edges_between_parts) {
-    offered_to_part[part_and_counts.first] =
-        MostCounted(part_and_counts.second);
-  }
-  // The communities with a model whose images are offered to each part.
-  std::map<int, std::vector<int>> offered_communities_of_part;
-  for (const auto& part_and_target : offered_to_part) {
-    const int part = part_and_target.first;
-    LOG(INFO) << StringPrintf(
-        "No similarity joins part %d to an earlier part: its images are "
-        "offered to part %d's refinement",
-        part,
-        part_and_target.second);
-    std::vector<std::string> part_image_names;
-    for (int c = 0; c < num_communities; ++c) {
-      if (models[c] && averaging.part_of_community[c] == part) {
-        for (const image_t image_id : communities.own_image_ids[c]) {
-          part_image_names.push_back(communities.name_of_image.at(image_id));
-        }
-      }
-    }
-    for (auto target = offered_to_part.find(part);
-         target != offered_to_part.end();
-         target = offered_to_part.find(target->second)) {
-      unmodelled_images_of_part[target->second].insert(part_image_names.begin(),
-                                                       part_image_names.end());
-      for (int c = 0; c < num_communities; ++c) {
-        if (models[c] && averaging.part_of_community[c] == part) {
-          offered_communities_of_part[target->second].push_back(c);
-        }
-      }
-    }
-  }
-  // Images an earlier part's model registered.
-  std::unordered_set<image_t> registered_image_ids;
-  const auto add_registered_images = [&](const Reconstruction& model) {
-    registered_image_ids.insert(model.RegImageIds().begin(),
-                                model.RegImageIds().end());
-  };
-  // Community c's model as its stage wrote it, with its own images that no
-  // earlier model registered.
-  const auto read_left_model = [&](const int c) {
-    auto model = std::make_shared<Reconstruction>();
-    model->Read(model_paths[c]);
-    return RestrictToImages(
-        ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
-        model);
-  };
   double refinement_seconds = 0.0;
-  std::vector<std::shared_ptr<Reconstruction>> merged_models;
-  for (int part = 0; part < averaging.NumParts(); ++part) {
-    std::vector<int> part_communities;
-    size_t num_left_images = 0;
-    for (int c = 0; c < num_communities; ++c) {
-      if (averaging.part_of_community[c] != part || !models[c]) {
-        continue;
-      }
-      part_communities.push_back(c);
-      size_t num_taken = 0;
-      for (const image_t image_id : models[c]->RegImageIds()) {
-        if (communities.own_image_ids[c].count(image_id) == 0) {
-          continue;
-        }
-        if (registered_image_ids.count(image_id)) {
-          ++num_taken;
-        } else {
-          ++num_left_images;
-        }
-      }
-      if (num_taken > 0) {
-        LOG(INFO) << StringPrintf(
-            "Community %d: %d of its own images are in an earlier part's "
-            "model already",
-            c,
-            static_cast<int>(num_taken));
-      }
-    }
-    for (const image_t image_id : registered_image_ids) {
-      const auto it = communities.name_of_image.find(image_id);
-      if (it != communities.name_of_image.end()) {
-        unmodelled_images_of_part[part].erase(it->second);
-      }
-    }
-    if (part_communities.empty()) {
-      continue;
-    }
-    if (num_left_images < 2 && unmodelled_images_of_part[part].empty()) {
-      LOG(WARNING) << StringPrintf(
-          "Part %d: fewer than 2 of its communities' own images are left to "
-          "it: no model for it.",
-          part);
-      for (const int c : part_communities) {
-        models[c].reset();
-      }
-      continue;
-    }
-    // A part of one community is taken as it is, unless images of other
-    // communities are offered to it.
-    if (part_communities.size() == 1 &&
-        unmodelled_images_of_part[part].empty()) {
-      const int c = part_communities[0];
-      std::shared_ptr<Reconstruction> model = RestrictToImages(
-          ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
-          models[c]);
-      models[c].reset();
-      if (model->NumRegImages() < 2) {
-        LOG(WARNING) << StringPrintf(
-            "Community %d, alone in its part, registered fewer than 2 of its "
-            "own images: no model for it.",
-            c);
-        continue;
-      }
-      add_registered_images(*model);
-      merged_models.push_back(std::move(model));
-      continue;
-    }
-    // Offered parts come after the part they are offered to: their models
-    // are still there. Each keeps only its community's own images: those
-    // of its neighbours it registered came through cross-community pairs,
-    // which may be the repeated structure whose transform the merge
-    // rejected (two identical towers: the model registers its neighbour's
-    // images stacked on its own tower, and they agree with the stacking
-    // transform). A block then joins only through its own images that the
-    // refinement registered one by one.
-    std::vector<std::shared_ptr<const Reconstruction>> offered_models;
-    for (const int c : offered_communities_of_part[part]) {
-      if (models[c]) {
-        offered_models.push_back(RestrictToImages(
-            ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
-            models[c]));
-      }
-    }
-    try {
-      merged_models.push_back(MergePart(options_,
-                                        part_communities,
-                                        communities,
-                                        similarities,
-                                        averaging,
-                                        unmodelled_images_of_part[part],
-                                        registered_image_ids,
-                                        false_pairs,
-                                        view_graph,
-                                        offered_models,
-                                        &models,
-                                        &refinement_seconds));
-      add_registered_images(*merged_models.back());
-    } catch (const std::exception& error) {
-      // Nothing is lost: the part's communities, as their stage wrote them,
-      // become models of their own.
-      LOG(ERROR) << "Merging communities failed: " << error.what()
-                 << "; each of them is written as a model of its own.";
-      for (const int c : part_communities) {
-        std::shared_ptr<Reconstruction> model = read_left_model(c);
-        if (model->NumRegImages() >= 2) {
-          add_registered_images(*model);
-          merged_models.push_back(std::move(model));
-        }
-      }
-    }
-  }
-
-  // A community that left the merge keeps the images nobody registered as
-  // a model of its own, if there are as many as the incremental mapper
-  // keeps in a model (Mapper.min_model_size): it was in doubt or small.
-  for (const int c : set_aside_communities) {
-    std::shared_ptr<Reconstruction> model = read_left_model(c);
-    if (static_cast<int>(model->NumRegImages()) >=
-        options_.incremental_options.min_model_size) {
-      LOG(INFO) << StringPrintf(
-          "Community %d left the merge: %d of its images that no merged model "
-          "registered keep its model, as a model of its own",
-          c,
-          static_cast<int>(model->NumRegImages()));
-      add_registered_images(*model);
-      merged_models.push_back(std::move(model));
-    }
-  }
+  std::vector<std::shared_ptr<Reconstruction>> merged_models =
+      MergeParts(options_,
+                 communities,
+                 similarities,
+                 averaging,
+                 PlanPartOffers(communities, cross_edges, models, averaging),
+                 set_aside_communities,
+                 false_pairs,
+                 view_graph,
+                 model_paths,
+                 &models,
+                 &refinement_seconds);
 
   std::stable_sort(merged_models.begin(),
                    merged_models.end(),

@@ -291,6 +291,9 @@ class CommunityMapperController : public BaseController {
                             std::mutex* database_mutex);
   // Whether the community has a record that fits the plan.
   bool IsReconstructed(int community_id) const;
+  // Whether every community of the plan has its record; logs those that
+  // have not otherwise.
+  bool CheckAllReconstructed() const;
 
   const Options options_;
   const CommunityWorkspace workspace_;
