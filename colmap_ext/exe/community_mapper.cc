@@ -125,6 +125,13 @@ bool CheckCommandOptions(const CommunityMapperCommand& command) {
         options.pose_graph.min_num_shared_points,
         options.pose_graph.max_num_neighbors));
   }
+  if (!(options.refinement.block_registration.min_inlier_fraction >= 0 &&
+        options.refinement.block_registration.min_inlier_fraction <= 1)) {
+    fail(StringPrintf(
+        "--CommunityMapper.block_min_inlier_fraction (%g) must be within "
+        "[0, 1].",
+        options.refinement.block_registration.min_inlier_fraction));
+  }
   if (options.refinement.block_registration.min_num_shared_images < 1) {
     fail(StringPrintf(
         "--CommunityMapper.block_min_num_shared_images (%d) must be "
@@ -713,6 +720,10 @@ void ParseCommand(int argc,
       &mapper_options.refinement.block_registration.min_num_shared_images,
       "images the merged model and an offered community model must share "
       "before the model is registered as a block");
+  add("block_min_inlier_fraction",
+      &mapper_options.refinement.block_registration.min_inlier_fraction,
+      "fraction of the points of the shared images that the block's "
+      "similarity must explain");
   add("robust_first_adjustment",
       &mapper_options.refinement.robust_first_adjustment,
       "align the merged model's cameras under a robust loss");

@@ -9,6 +9,8 @@ namespace colmap {
 
 bool BlockRegistrationOptions::Check() const {
   CHECK_OPTION_GE(min_num_shared_images, 1);
+  CHECK_OPTION_GE(min_inlier_fraction, 0);
+  CHECK_OPTION_LE(min_inlier_fraction, 1);
   CHECK_OPTION(similarity.Check());
   return true;
 }
@@ -59,12 +61,14 @@ BlockRegistration EstimateBlockRegistration(
       correspondences,
       options.similarity,
       [&](const PairwiseSimilarity& candidate) {
-        return CheckSharedImages(model,
+        return candidate.num_inliers >=
+                   options.min_inlier_fraction * correspondences.Size() &&
+               CheckSharedImages(model,
                                  merged,
                                  candidate.second_from_first,
                                  spread,
                                  options.similarity)
-            .AllAgree();
+                   .AllAgree();
       },
       &num_rejected);
   registration.num_inliers = similarity.num_inliers;

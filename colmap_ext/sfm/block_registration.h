@@ -9,17 +9,18 @@
 // (about half a second each on South Building's 1024 px photographs).
 //
 // Once the merged model and the community model register a few images in
-// common (images of the community's overlap, or images the refinement
-// registered one by one), their shared images say directly where the
-// community model lies: the similarity X_merged = s R X_model + t is
-// estimated with LO-RANSAC from the 3D points that both models triangulated
-// from the same keypoints of the shared images (as CSfM's pairwise
-// similarities, pairwise_similarity.h), and it is accepted only if it maps
-// every shared image's pose in the community model onto its pose in the
-// merged model (CheckSharedImages). The model's other images are then
-// registered at once with their poses mapped by it, keeping the shape of
-// the community's model, as the similarity averaging would have placed it.
-// The refinement's track building and bundle adjustments follow as for any
+// common (the controller passes the community's own images only, so these
+// are images the refinement registered one by one), their shared images say
+// directly where the community model lies: the similarity
+// X_merged = s R X_model + t is estimated with LO-RANSAC from the 3D points
+// that both models triangulated from the same keypoints of the shared
+// images (as CSfM's pairwise similarities, pairwise_similarity.h), and it
+// is accepted only if it explains most of those points and maps every
+// shared image's pose in the community model onto its pose in the merged
+// model (CheckSharedImages). The model's other images are then registered
+// at once with their poses mapped by it, keeping the shape of the
+// community's model, as the similarity averaging would have placed it. The
+// refinement's track building and bundle adjustments follow as for any
 // joined community.
 
 #pragma once
@@ -38,6 +39,13 @@ struct BlockRegistrationOptions {
   // them is estimated: with fewer, a wrong transform that happens to fit
   // them is not ruled out by the others (each shared image is one check).
   int min_num_shared_images = 3;
+
+  // Fraction of the corresponding points the similarity must explain. They
+  // are the same keypoints triangulated in both models, so a right model
+  // agrees on nearly all (South Building and its subsets: 92-98%); where
+  // the model is bent or was registered on repeated structure, far fewer
+  // agree.
+  double min_inlier_fraction = 0.5;
 
   // The similarity's estimation and its check of the shared images.
   PairwiseSimilarityOptions similarity;

@@ -126,6 +126,38 @@ TEST_F(BlockRegistrationTest, AContradictingSharedImageRegistersNothing) {
   EXPECT_FALSE(block.success);
 }
 
+// A model bent inside itself (here: the points of half its images moved
+// away, as a community that drifted) agrees with the merged model on few
+// of the shared images' points: no block, though a transform fits some.
+TEST_F(BlockRegistrationTest,
+       AModelThatExplainsFewOfThePointsRegistersNothing) {
+  const Reconstruction merged = Merged(4);
+  std::set<point3D_t> moved;
+  int i = 0;
+  for (const image_t image_id : community_images_) {
+    if (i++ % 2 == 1) {
+      for (const Point2D& point2D : model_.Image(image_id).Points2D()) {
+        if (point2D.HasPoint3D()) {
+          moved.insert(point2D.point3D_id);
+        }
+      }
+    }
+  }
+  for (const point3D_t point3D_id : moved) {
+    model_.Point3D(point3D_id).xyz += Eigen::Vector3d(3, -2, 4);
+  }
+  BlockRegistrationOptions options;
+  options.min_inlier_fraction = 0;
+  const BlockRegistration lenient =
+      EstimateBlockRegistration(model_, merged, options);
+  EXPECT_TRUE(lenient.success);
+  EXPECT_LT(lenient.num_inliers, 0.5 * lenient.num_correspondences);
+
+  const BlockRegistration block =
+      EstimateBlockRegistration(model_, merged, BlockRegistrationOptions());
+  EXPECT_FALSE(block.success);
+}
+
 // Nothing left to register (the merged model holds all the model's images
 // already): no block, whatever the transform.
 TEST_F(BlockRegistrationTest, NothingLeftToRegister) {
