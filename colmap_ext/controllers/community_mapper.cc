@@ -181,10 +181,12 @@ int MostCounted(const std::map<int, size_t>& counts) {
 // (images of communities without a model or that left the merge, and of
 // parts offered to this one, which the refinement tries to register). Own
 // images in `taken_image_ids` (registered by an earlier part's model) are
-// left out. `offered_models` are the models of the communities of parts
-// offered to this one, which the refinement registers as blocks where it
-// can. The communities' own models are consumed. Adds the seconds
-// spent in the refinement to `refinement_seconds`.
+// left out. `offered_models` are the models (their own images only) of the
+// communities of parts offered to this one and of those offered to it
+// that left the merge for want of a confirmed link, which the refinement
+// registers as blocks where it can. The communities' own models are
+// consumed. Adds the seconds spent in the refinement to
+// `refinement_seconds`.
 std::shared_ptr<Reconstruction> MergePart(
     const CommunityMapperController::Options& options,
     const std::vector<int>& part_communities,
@@ -356,12 +358,14 @@ std::shared_ptr<Reconstruction> MergePart(
   LogMemory("the refinement");
   LOG(INFO) << StringPrintf(
       "Merged model: %d images, %d points, mean reprojection error %.3f px "
-      "(%.3f px before refinement), %d images newly registered",
+      "(%.3f px before refinement), %d images newly registered (%d as "
+      "blocks)",
       static_cast<int>(merged->NumRegImages()),
       static_cast<int>(merged->NumPoints3D()),
       refinement.final_mean_reprojection_error,
       refinement.initial_mean_reprojection_error,
-      refinement.num_newly_registered_images);
+      refinement.num_newly_registered_images,
+      refinement.num_block_registered_images);
   if (options.incremental_options.extract_colors) {
     merged->ExtractColorsForAllImages(options.image_path);
   }
@@ -487,8 +491,9 @@ struct PartOffers {
   // By part: names of the images offered to it (of communities without a
   // model or that left the merge, and of the parts offered to it).
   std::map<int, std::unordered_set<std::string>> extra_image_names_of_part;
-  // By part: the communities with a model whose part is offered to it
-  // (their models join as blocks where they can).
+  // By part: the communities with a model whose images are offered to it
+  // (those of offered parts, and those in doubt that left the merge for
+  // want of a confirmed link); their models join as blocks where they can.
   std::map<int, std::vector<int>> offered_communities_of_part;
 };
 
@@ -547,11 +552,15 @@ SimilarityAveragingResult JudgeAndAverage(
 // Communities that the averaging sent out of the merge lose their model
 // here (their images are offered to the merged models); returns those
 // whose model is not broken, which keep the images no merged model
-// registers (MergeParts).
+// registers (MergeParts). `unconfirmed_communities` receives those of them
+// in doubt that left for want of a link their shared images confirm (no
+// evidence against their model, unlike links that disagree: such a model
+// may be bent), whose models may join as blocks.
 std::vector<int> SetAsideExcludedCommunities(
     const std::vector<RelativeSimilarity>& similarities,
     const SimilarityAveragingResult& averaging,
     Models* models_ptr,
+    std::vector<int>* unconfirmed_communities,
     CommunityMapperController::Summary* summary) {
   const int num_communities = static_cast<int>(models_ptr->size());
   std::vector<int> set_aside_communities;
@@ -578,6 +587,9 @@ std::vector<int> SetAsideExcludedCommunities(
                 "and it is small");
       if (!summary->community_judgements[c].broken) {
         set_aside_communities.push_back(c);
+        if (unconfirmed && summary->community_judgements[c].doubtful) {
+          unconfirmed_communities->push_back(c);
+        }
       }
       models[c].reset();
     }
@@ -590,7 +602,8 @@ std::vector<int> SetAsideExcludedCommunities(
 PartOffers PlanPartOffers(const CommunityImages& communities,
                           const CrossEdges& cross_edges,
                           const Models& models,
-                          const SimilarityAveragingResult& averaging) {
+                          const SimilarityAveragingResult& averaging,
+                          const std::vector<int>& unconfirmed_communities) {
   const int num_communities = static_cast<int>(models.size());
   PartOffers offers;
   // The images of a community without a model are offered to the part its
@@ -606,12 +619,19 @@ PartOffers PlanPartOffers(const CommunityImages& communities,
           pair_and_edges.second.size();
     }
   }
+  // A community that left the merge for want of a confirmed link is
+  // offered with its model, which can join as a block.
   for (const auto& community_and_counts : num_edges_to_part) {
+    const int c = community_and_counts.first;
     const int best_part = MostCounted(community_and_counts.second);
-    for (const image_t image_id :
-         communities.own_image_ids[community_and_counts.first]) {
+    for (const image_t image_id : communities.own_image_ids[c]) {
       offers.extra_image_names_of_part[best_part].insert(
           communities.name_of_image.at(image_id));
+    }
+    if (std::find(unconfirmed_communities.begin(),
+                  unconfirmed_communities.end(),
+                  c) != unconfirmed_communities.end()) {
+      offers.offered_communities_of_part[best_part].push_back(c);
     }
   }
   // A part that no similarity joins to an earlier one (larger, or as large)
@@ -778,23 +798,25 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
       merged_models.push_back(std::move(model));
       continue;
     }
-    // Offered parts come after the part they are offered to: their models
-    // are still there. Each keeps only its community's own images: those
-    // of its neighbours it registered came through cross-community pairs,
-    // which may be the repeated structure whose transform the merge
-    // rejected (two identical towers: the model registers its neighbour's
-    // images stacked on its own tower, and they agree with the stacking
-    // transform). A block then joins only through its own images that the
-    // refinement registered one by one.
-    std::vector<std::shared_ptr<const Reconstruction>> offered_models;
-    for (const int c : offers.offered_communities_of_part[part]) {
-      if (models[c]) {
-        offered_models.push_back(RestrictToImages(
-            ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
-            models[c]));
-      }
-    }
     try {
+      // Offered parts come after the part they are offered to: their models
+      // are still there. Each keeps only its community's own images: those
+      // of its neighbours it registered came through cross-community pairs,
+      // which may be the repeated structure whose transform the merge
+      // rejected (two identical towers: the model registers its neighbour's
+      // images stacked on its own tower, and they agree with the stacking
+      // transform). A block then joins only through its own images that the
+      // refinement registered one by one.
+      // Those of communities that left the merge are read again.
+      std::vector<std::shared_ptr<const Reconstruction>> offered_models;
+      for (const int c : offers.offered_communities_of_part[part]) {
+        offered_models.push_back(
+            models[c]
+                ? RestrictToImages(ImagesNotTaken(communities.own_image_ids[c],
+                                                  registered_image_ids),
+                                   models[c])
+                : read_left_model(c));
+      }
       merged_models.push_back(MergePart(options,
                                         part_communities,
                                         communities,
@@ -854,13 +876,14 @@ IncrementalMapperOptions
 CommunityMapperController::Options::CommunityIncrementalOptions(
     const std::unordered_set<std::string>& image_names,
     const int num_threads,
-    const double own_camera_fraction) const {
+    const double own_camera_fraction,
+    const bool only_community) const {
   IncrementalMapperOptions community_options = incremental_options;
   community_options.image_names = image_names;
   if (community_options.num_threads < 0) {
     community_options.num_threads = num_threads;
   }
-  if (UsesMapperSchedule(own_camera_fraction)) {
+  if (UsesMapperSchedule(own_camera_fraction, only_community)) {
     return community_options;
   }
   if (community_ba_function_tolerance >= 0) {
@@ -875,8 +898,9 @@ CommunityMapperController::Options::CommunityIncrementalOptions(
 }
 
 bool CommunityMapperController::Options::UsesMapperSchedule(
-    const double own_camera_fraction) const {
-  return mapper_schedule_for_own_cameras && own_camera_fraction > 0.5;
+    const double own_camera_fraction, const bool only_community) const {
+  return only_community ||
+         (mapper_schedule_for_own_cameras && own_camera_fraction > 0.5);
 }
 
 bool CommunityMapperController::Options::Check() const {
@@ -1092,7 +1116,11 @@ bool CommunityMapperController::ReconstructAndRecord(
                      << error.what();
       }
     }
-    if (options_.UsesMapperSchedule(own_camera_fraction)) {
+    const bool only_community = plan_.NumCommunities() == 1;
+    if (only_community) {
+      LOG(INFO) << "The plan's only community: the mapper's own global "
+                   "adjustments (nothing is merged and adjusted after it)";
+    } else if (options_.UsesMapperSchedule(own_camera_fraction)) {
       LOG(INFO) << StringPrintf(
           "%.0f%% of the images have a camera of their own: the mapper's "
           "own global adjustments",
@@ -1101,7 +1129,7 @@ bool CommunityMapperController::ReconstructAndRecord(
     const CommunityReconstruction reconstruction = colmap::ReconstructCommunity(
         std::make_shared<const IncrementalMapperOptions>(
             options_.CommunityIncrementalOptions(
-                image_names, num_threads, own_camera_fraction)),
+                image_names, num_threads, own_camera_fraction, only_community)),
         options_.image_path,
         options_.database_path,
         database_mutex);
@@ -1271,8 +1299,9 @@ bool CommunityMapperController::Merge() {
   // images the merged models do not register keep their community's model,
   // as a model of its own (the incremental mapper too writes the models it
   // could not join). Read again from the workspace at the end.
-  const std::vector<int> set_aside_communities =
-      SetAsideExcludedCommunities(similarities, averaging, &models, &summary_);
+  std::vector<int> unconfirmed_communities;
+  const std::vector<int> set_aside_communities = SetAsideExcludedCommunities(
+      similarities, averaging, &models, &unconfirmed_communities, &summary_);
   summary_.phase_seconds.emplace_back("Similarity averaging",
                                       phase_timer.ElapsedSeconds());
   LOG(INFO) << StringPrintf("Similarity averaging: %.3fs (%s)",
@@ -1282,18 +1311,19 @@ bool CommunityMapperController::Merge() {
   PrintHeading1("Merging the communities and bundle adjustment");
   phase_timer.Restart();
   double refinement_seconds = 0.0;
-  std::vector<std::shared_ptr<Reconstruction>> merged_models =
-      MergeParts(options_,
-                 communities,
-                 similarities,
-                 averaging,
-                 PlanPartOffers(communities, cross_edges, models, averaging),
-                 set_aside_communities,
-                 false_pairs,
-                 view_graph,
-                 model_paths,
-                 &models,
-                 &refinement_seconds);
+  std::vector<std::shared_ptr<Reconstruction>> merged_models = MergeParts(
+      options_,
+      communities,
+      similarities,
+      averaging,
+      PlanPartOffers(
+          communities, cross_edges, models, averaging, unconfirmed_communities),
+      set_aside_communities,
+      false_pairs,
+      view_graph,
+      model_paths,
+      &models,
+      &refinement_seconds);
 
   std::stable_sort(merged_models.begin(),
                    merged_models.end(),

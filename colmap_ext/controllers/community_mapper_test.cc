@@ -45,6 +45,27 @@ TEST(CommunityIncrementalOptions, MinusOneKeepsTheMappersSettings) {
   ExpectMappersGlobalAdjustments(community_options);
 }
 
+// The plan's only community is the result (nothing is merged and adjusted
+// after it): the mapper's schedule, whatever its cameras.
+TEST(CommunityIncrementalOptions, TheOnlyCommunityKeepsTheMappers) {
+  CommunityMapperController::Options options;
+  options.community_ba_function_tolerance = 1e-5;
+  options.community_ba_global_ratio = 1.3;
+  options.mapper_schedule_for_own_cameras = false;
+  ExpectMappersGlobalAdjustments(
+      options.CommunityIncrementalOptions({"a.jpg"},
+                                          /*num_threads=*/2,
+                                          /*own_camera_fraction=*/0,
+                                          /*only_community=*/true));
+  const IncrementalMapperOptions one_of_several =
+      options.CommunityIncrementalOptions({"a.jpg"},
+                                          /*num_threads=*/2,
+                                          /*own_camera_fraction=*/0,
+                                          /*only_community=*/false);
+  EXPECT_EQ(one_of_several.ba_global_function_tolerance, 1e-5);
+  EXPECT_EQ(one_of_several.ba_global_images_ratio, 1.3);
+}
+
 TEST(CommunityIncrementalOptions, ImagesWithCamerasOfTheirOwnKeepTheMappers) {
   CommunityMapperController::Options options;
   options.community_ba_function_tolerance = 1e-5;

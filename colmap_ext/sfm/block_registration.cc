@@ -83,16 +83,21 @@ void ApplyBlockRegistration(const Reconstruction& model,
                             const BlockRegistration& registration,
                             Reconstruction* merged) {
   THROW_CHECK(registration.success);
-  std::unordered_set<camera_t> used_camera_ids;
+  // Cameras that a registered image of the merged model uses and the model
+  // does not hold keep the merged model's intrinsics; the others take the
+  // model's.
+  std::unordered_set<camera_t> kept_camera_ids;
   for (const image_t image_id : merged->RegImageIds()) {
-    used_camera_ids.insert(merged->Image(image_id).CameraId());
+    if (!model.ExistsImage(image_id) || !model.IsImageRegistered(image_id)) {
+      kept_camera_ids.insert(merged->Image(image_id).CameraId());
+    }
   }
   for (const image_t image_id : registration.image_ids) {
     const Image& model_image = model.Image(image_id);
     Image& image = merged->Image(image_id);
     THROW_CHECK(!image.IsRegistered());
     THROW_CHECK_EQ(image.CameraId(), model_image.CameraId());
-    if (used_camera_ids.insert(image.CameraId()).second) {
+    if (kept_camera_ids.insert(image.CameraId()).second) {
       merged->Camera(image.CameraId()).params =
           model.Camera(image.CameraId()).params;
     }

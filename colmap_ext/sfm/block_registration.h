@@ -15,13 +15,13 @@
 // X_merged = s R X_model + t is estimated with LO-RANSAC from the 3D points
 // that both models triangulated from the same keypoints of the shared
 // images (as CSfM's pairwise similarities, pairwise_similarity.h), and it
-// is accepted only if it explains most of those points and maps every
-// shared image's pose in the community model onto its pose in the merged
-// model (CheckSharedImages). The model's other images are then registered
-// at once with their poses mapped by it, keeping the shape of the
-// community's model, as the similarity averaging would have placed it. The
-// refinement's track building and bundle adjustments follow as for any
-// joined community.
+// is accepted only if it explains at least `min_inlier_fraction` of those
+// points (half by default) and maps every shared image's pose in the
+// community model onto its pose in the merged model (CheckSharedImages).
+// The model's other images are then registered at once with their poses
+// mapped by it, keeping the shape of the community's model, as the
+// similarity averaging would have placed it. The refinement's track
+// building and bundle adjustments follow as for any joined community.
 
 #pragma once
 
@@ -73,10 +73,13 @@ BlockRegistration EstimateBlockRegistration(
     const BlockRegistrationOptions& options);
 
 // Registers `registration.image_ids` in `merged` with their poses in `model`
-// mapped by `registration.merged_from_model`. A camera that no registered
-// image of `merged` uses yet takes the model's intrinsics (they were refined
-// there; the merged model holds only the database's prior). The images gain
-// no points: triangulating them is the caller's part.
+// mapped by `registration.merged_from_model`. A camera that only images of
+// the model use among the registered images of `merged` (the shared images
+// registered one by one, if any) takes the model's intrinsics: they were
+// refined there over all its images, where the merged model has the
+// database's prior or what a few images registered one by one told; a
+// camera that other images of `merged` use keeps its intrinsics. The images
+// gain no points: triangulating them is the caller's part.
 void ApplyBlockRegistration(const Reconstruction& model,
                             const BlockRegistration& registration,
                             Reconstruction* merged);

@@ -94,6 +94,51 @@ TEST_F(BlockRegistrationTest, PlacesTheModelsOtherImagesAsTheGroundTruth) {
   }
 }
 
+// One camera for all images: the merged model's other images use it, so
+// it keeps the merged model's intrinsics; where only the model's images use
+// it, it takes the model's.
+TEST(BlockRegistration, ASharedCameraKeepsTheIntrinsicsOfTheMergedModel) {
+  SyntheticSceneOptions options;
+  options.num_clusters = 2;
+  options.num_images_per_cluster = 20;
+  options.num_images_per_link = 10;
+  options.close_loop = false;
+  options.keypoint_noise = 0;
+  options.single_camera = true;
+  options.seed = 7;
+  SyntheticScene scene;
+  SynthesizeCommunityScene(options, &scene, /*database=*/nullptr);
+  std::set<image_t> landmark0;
+  std::set<image_t> landmark1;
+  for (const auto& image_and_cluster : scene.image_cluster) {
+    (image_and_cluster.second == 1 ? landmark1 : landmark0)
+        .insert(image_and_cluster.first);
+  }
+  const Reconstruction model =
+      CommunityModel(scene.ground_truth, landmark1, Sim3d());
+  std::set<image_t> shared(landmark1.begin(), std::next(landmark1.begin(), 3));
+  const camera_t camera_id =
+      scene.ground_truth.Image(*landmark1.begin()).CameraId();
+  const std::vector<double> truth = model.Camera(camera_id).params;
+
+  for (const bool with_landmark0 : {true, false}) {
+    std::set<image_t> image_ids = shared;
+    if (with_landmark0) {
+      image_ids.insert(landmark0.begin(), landmark0.end());
+    }
+    Reconstruction merged =
+        CommunityModel(scene.ground_truth, image_ids, Sim3d());
+    merged.Camera(camera_id).params[0] *= 1.3;
+    const std::vector<double> prior = merged.Camera(camera_id).params;
+    const BlockRegistration block =
+        EstimateBlockRegistration(model, merged, BlockRegistrationOptions());
+    ASSERT_TRUE(block.success);
+    ApplyBlockRegistration(model, block, &merged);
+    EXPECT_EQ(merged.Camera(camera_id).params, with_landmark0 ? prior : truth)
+        << "with landmark 0: " << with_landmark0;
+  }
+}
+
 TEST_F(BlockRegistrationTest, TooFewSharedImagesRegisterNothing) {
   const BlockRegistration block =
       EstimateBlockRegistration(model_, Merged(2), BlockRegistrationOptions());

@@ -479,16 +479,18 @@ MergedModelRefinementSummary RefineMergedModel(
   // more points and better poses can admit images that failed before (each
   // image at most Mapper.max_reg_trials times per loading of the
   // correspondences).
-  // An offered community model is registered as a block once the merged
-  // model shares enough images with it (before any image is registered one
-  // by one, and after each); each model once.
-  // Returns the number of images registered.
+  // Each offered community model is registered as a block once the merged
+  // model shares enough of its images, with the checks of
+  // EstimateBlockRegistration (tried before any image is registered one by
+  // one and after each, again in every round: the points change). The
+  // mapper then begins anew on the reconstruction (its per-camera counts
+  // must hold the block's images), which also resets its count of
+  // registration trials.
   std::vector<bool> block_registered(offered_models.size(), false);
-  // The shared images of the last try (a try with no new one is not
-  // repeated).
-  std::vector<size_t> num_tried_shared_images(offered_models.size(), 0);
+  // The shared images of the last try in this round (a try with no new one
+  // is not repeated).
+  std::vector<size_t> num_tried_shared_images;
   const auto register_offered_blocks = [&]() {
-    size_t num_registered = 0;
     for (size_t k = 0; k < offered_models.size(); ++k) {
       if (block_registered[k] || !options.register_offered_blocks) {
         continue;
@@ -518,7 +520,8 @@ MergedModelRefinementSummary RefineMergedModel(
       for (const image_t image_id : block.image_ids) {
         mapper->TriangulateImage(triangulation, image_id);
       }
-      num_registered += block.image_ids.size();
+      // Not the next local adjustment's business (it would take them all).
+      mapper->ClearModifiedPoints3D();
       summary.num_block_registered_images +=
           static_cast<int>(block.image_ids.size());
       LOG(INFO) << StringPrintf(
@@ -530,8 +533,8 @@ MergedModelRefinementSummary RefineMergedModel(
           block.num_inliers,
           block.num_correspondences);
     }
-    return num_registered;
   };
+  // Returns the number of images registered.
   const auto register_remaining_images = [&](const bool log_none) {
     if (!options.register_remaining_images) {
       return size_t{0};
@@ -539,6 +542,8 @@ MergedModelRefinementSummary RefineMergedModel(
     Timer registration_timer;
     registration_timer.Start();
     const size_t num_reg_images_before = reconstruction->NumRegImages();
+    const int num_block_images_before = summary.num_block_registered_images;
+    num_tried_shared_images.assign(offered_models.size(), 0);
     register_offered_blocks();
     while (true) {
       bool registered = false;
@@ -566,8 +571,10 @@ MergedModelRefinementSummary RefineMergedModel(
     summary.num_newly_registered_images += static_cast<int>(num_registered);
     if (num_registered > 0 || log_none) {
       LOG(INFO) << StringPrintf(
-          "Registered %d images that no community had registered (%.1fs)",
+          "Registered %d images that no community of the model had "
+          "registered, %d of them as blocks (%.1fs)",
           static_cast<int>(num_registered),
+          summary.num_block_registered_images - num_block_images_before,
           registration_timer.ElapsedSeconds());
     }
     return num_registered;

@@ -71,17 +71,19 @@ struct MergedModelRefinementOptions {
   // Try to register the images that no community registered: after the
   // alignment, again after the triangulation anew and after every
   // adjustment (each image at most Mapper.max_reg_trials times per loading
-  // of the correspondences); a round that registered images is followed by
-  // another.
+  // of the correspondences or block registration); a round that registered
+  // images is followed by another.
   bool register_remaining_images = true;
 
   // Models of communities whose images are offered to this refinement
-  // (parts that no kept similarity joins to this one) are registered as one
-  // block each, through the images the merged model registers in common
-  // with them (block_registration.h), instead of image by image; their
-  // images the block does not hold are still registered one by one. On
-  // South Building (a community of 24 images whose only links were
-  // dropped) ...
+  // (parts that no kept similarity joins to this one, communities that left
+  // the merge without being broken) are registered as one block each,
+  // through the images the merged model registers in common with them
+  // (block_registration.h), instead of image by image; their images the
+  // block does not hold are still registered one by one. Part of the
+  // registration above: off with it. On South Building (stop 29's
+  // database: a community of 24 images whose links were all dropped) 3
+  // images one by one and 21 as a block took 1.2 s instead of 12.5 s.
   bool register_offered_blocks = true;
   BlockRegistrationOptions block_registration;
 
