@@ -13,6 +13,27 @@
 namespace colmap {
 namespace {
 
+// Two landmarks joined by a walkway, without noise; `landmark1_images`
+// receives landmark 1's images, `other_images` the rest.
+void SynthesizeTwoLandmarks(const bool single_camera,
+                            SyntheticScene* scene,
+                            std::set<image_t>* other_images,
+                            std::set<image_t>* landmark1_images) {
+  SyntheticSceneOptions options;
+  options.num_clusters = 2;
+  options.num_images_per_cluster = 20;
+  options.num_images_per_link = 10;
+  options.close_loop = false;
+  options.keypoint_noise = 0;
+  options.single_camera = single_camera;
+  options.seed = 7;
+  SynthesizeCommunityScene(options, scene, /*database=*/nullptr);
+  for (const auto& image_and_cluster : scene->image_cluster) {
+    (image_and_cluster.second == 1 ? landmark1_images : other_images)
+        ->insert(image_and_cluster.first);
+  }
+}
+
 // Two landmarks joined by a walkway: the merged model holds landmark 0 and
 // the walkway in the world frame and `num_shared` images of landmark 1
 // (registered one by one, say); the community model holds landmark 1 in a
@@ -20,19 +41,8 @@ namespace {
 class BlockRegistrationTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    SyntheticSceneOptions options;
-    options.num_clusters = 2;
-    options.num_images_per_cluster = 20;
-    options.num_images_per_link = 10;
-    options.close_loop = false;
-    options.keypoint_noise = 0;
-    options.single_camera = false;
-    options.seed = 7;
-    SynthesizeCommunityScene(options, &scene_, /*database=*/nullptr);
-    for (const auto& image_and_cluster : scene_.image_cluster) {
-      (image_and_cluster.second == 1 ? community_images_ : merged_images_)
-          .insert(image_and_cluster.first);
-    }
+    SynthesizeTwoLandmarks(
+        /*single_camera=*/false, &scene_, &merged_images_, &community_images_);
     model_from_world_ = Sim3d(
         0.2,
         Eigen::Quaterniond(Eigen::AngleAxisd(2.0, Eigen::Vector3d::UnitY())),
@@ -98,22 +108,11 @@ TEST_F(BlockRegistrationTest, PlacesTheModelsOtherImagesAsTheGroundTruth) {
 // it keeps the merged model's intrinsics; where only the model's images use
 // it, it takes the model's.
 TEST(BlockRegistration, ASharedCameraKeepsTheIntrinsicsOfTheMergedModel) {
-  SyntheticSceneOptions options;
-  options.num_clusters = 2;
-  options.num_images_per_cluster = 20;
-  options.num_images_per_link = 10;
-  options.close_loop = false;
-  options.keypoint_noise = 0;
-  options.single_camera = true;
-  options.seed = 7;
   SyntheticScene scene;
-  SynthesizeCommunityScene(options, &scene, /*database=*/nullptr);
   std::set<image_t> landmark0;
   std::set<image_t> landmark1;
-  for (const auto& image_and_cluster : scene.image_cluster) {
-    (image_and_cluster.second == 1 ? landmark1 : landmark0)
-        .insert(image_and_cluster.first);
-  }
+  SynthesizeTwoLandmarks(
+      /*single_camera=*/true, &scene, &landmark0, &landmark1);
   const Reconstruction model =
       CommunityModel(scene.ground_truth, landmark1, Sim3d());
   std::set<image_t> shared(landmark1.begin(), std::next(landmark1.begin(), 3));
