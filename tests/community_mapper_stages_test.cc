@@ -369,7 +369,9 @@ TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
   // `keep_second`: the second model is written beside the first (as the
   // community stage does now) or not (as before, when only the largest was
   // kept). Returns the merger's log.
-  const auto merge = [&](const std::string& name, const bool keep_second) {
+  const auto merge = [&](const std::string& name,
+                         const bool keep_second,
+                         const std::string& flags = "") {
     const std::string out = JoinPaths(*root_, name);
     const CommunityWorkspace workspace(out);
     boost::filesystem::remove_all(out);
@@ -402,7 +404,8 @@ TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
                               workspace.CommunityRecordPath(c));
     }
     std::string log;
-    EXPECT_EQ(RunCommand(Command("community_merger", out), &log), 0) << log;
+    EXPECT_EQ(RunCommand(Command("community_merger", out) + flags, &log), 0)
+        << log;
     return log;
   };
 
@@ -429,6 +432,28 @@ TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
   // Without the second model, its images are registered one by one.
   const std::string without_log = merge("largest-only", /*keep_second=*/false);
   EXPECT_GE(NumNewlyRegistered(without_log), num_second_own / 2) << without_log;
+
+  // Where nothing confirms the second model's links (here: bridges need
+  // more shared images than any link has), it leaves the merge in doubt;
+  // its model still joins, as a block through a few of its images
+  // registered one by one, into one model as accurate.
+  const std::string unconfirmed_log =
+      merge("second-model-unconfirmed",
+            /*keep_second=*/true,
+            " --CommunityMapper.min_num_shared_images_on_bridge 1000");
+  EXPECT_NE(unconfirmed_log.find("nothing confirms its similarities"),
+            std::string::npos)
+      << unconfirmed_log;
+  EXPECT_NE(unconfirmed_log.find("of an offered community model as one block"),
+            std::string::npos)
+      << unconfirmed_log;
+  const ModelEvaluation unconfirmed = CompareWithGroundTruth(
+      JoinPaths(*root_, "second-model-unconfirmed", "0"));
+  EXPECT_GE(unconfirmed.num_registered_images, reference.num_registered_images);
+  EXPECT_FALSE(ExistsDir(JoinPaths(*root_, "second-model-unconfirmed", "1")));
+  ASSERT_TRUE(unconfirmed.aligned);
+  EXPECT_LT(unconfirmed.median_position_error,
+            1.5 * reference.median_position_error + 1e-4 * reference.extent);
 }
 
 }  // namespace
