@@ -768,7 +768,9 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
     if (part_communities.empty()) {
       continue;
     }
-    if (num_left_images < 2 && offers.extra_image_names_of_part[part].empty()) {
+    // (Images offered to it could not register either: there would be no
+    // points to register them on.)
+    if (num_left_images < 2) {
       LOG(WARNING) << StringPrintf(
           "Part %d: fewer than 2 of its communities' own images are left to "
           "it: no model for it.",
@@ -817,19 +819,28 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
                                    models[c])
                 : read_left_model(c));
       }
-      merged_models.push_back(MergePart(options,
-                                        part_communities,
-                                        communities,
-                                        similarities,
-                                        averaging,
-                                        offers.extra_image_names_of_part[part],
-                                        registered_image_ids,
-                                        false_pairs,
-                                        view_graph,
-                                        offered_models,
-                                        &models,
-                                        refinement_seconds));
-      add_registered_images(*merged_models.back());
+      std::shared_ptr<Reconstruction> merged =
+          MergePart(options,
+                    part_communities,
+                    communities,
+                    similarities,
+                    averaging,
+                    offers.extra_image_names_of_part[part],
+                    registered_image_ids,
+                    false_pairs,
+                    view_graph,
+                    offered_models,
+                    &models,
+                    refinement_seconds);
+      if (merged->NumRegImages() < 2) {
+        LOG(WARNING) << StringPrintf(
+            "Part %d: its merged model holds fewer than 2 images: no model "
+            "for it.",
+            part);
+        continue;
+      }
+      add_registered_images(*merged);
+      merged_models.push_back(std::move(merged));
     } catch (const std::exception& error) {
       // Nothing is lost: the part's communities, as their stage wrote them,
       // become models of their own.
