@@ -722,14 +722,18 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
     registered_image_ids.insert(model.RegImageIds().begin(),
                                 model.RegImageIds().end());
   };
-  // Community c's model as its stage wrote it, with its own images that no
-  // earlier model registered.
-  const auto read_left_model = [&](const int c) {
-    auto model = std::make_shared<Reconstruction>();
-    model->Read(model_paths[c]);
+  // Community c's model restricted to its own images that no earlier
+  // model registered: `model` (its copy in memory), or as its stage wrote
+  // it if null.
+  const auto left_model = [&](const int c,
+                              std::shared_ptr<Reconstruction> model) {
+    if (!model) {
+      model = std::make_shared<Reconstruction>();
+      model->Read(model_paths[c]);
+    }
     return RestrictToImages(
         ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
-        model);
+        std::move(model));
   };
   std::vector<std::shared_ptr<Reconstruction>> merged_models;
   for (int part = 0; part < averaging.NumParts(); ++part) {
@@ -785,9 +789,7 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
     if (part_communities.size() == 1 &&
         offers.extra_image_names_of_part[part].empty()) {
       const int c = part_communities[0];
-      std::shared_ptr<Reconstruction> model = RestrictToImages(
-          ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
-          models[c]);
+      std::shared_ptr<Reconstruction> model = left_model(c, models[c]);
       models[c].reset();
       if (model->NumRegImages() < 2) {
         LOG(WARNING) << StringPrintf(
@@ -812,12 +814,7 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
       // Those of communities that left the merge are read again.
       std::vector<std::shared_ptr<const Reconstruction>> offered_models;
       for (const int c : offers.offered_communities_of_part[part]) {
-        offered_models.push_back(
-            models[c]
-                ? RestrictToImages(ImagesNotTaken(communities.own_image_ids[c],
-                                                  registered_image_ids),
-                                   models[c])
-                : read_left_model(c));
+        offered_models.push_back(left_model(c, models[c]));
       }
       std::shared_ptr<Reconstruction> merged =
           MergePart(options,
@@ -847,7 +844,8 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
       LOG(ERROR) << "Merging communities failed: " << error.what()
                  << "; each of them is written as a model of its own.";
       for (const int c : part_communities) {
-        std::shared_ptr<Reconstruction> model = read_left_model(c);
+        std::shared_ptr<Reconstruction> model =
+            left_model(c, /*model=*/nullptr);
         if (model->NumRegImages() >= 2) {
           add_registered_images(*model);
           merged_models.push_back(std::move(model));
@@ -860,7 +858,7 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
   // a model of its own, if there are as many as the incremental mapper
   // keeps in a model (Mapper.min_model_size): it was in doubt or small.
   for (const int c : set_aside_communities) {
-    std::shared_ptr<Reconstruction> model = read_left_model(c);
+    std::shared_ptr<Reconstruction> model = left_model(c, /*model=*/nullptr);
     if (static_cast<int>(model->NumRegImages()) >=
         options.incremental_options.min_model_size) {
       LOG(INFO) << StringPrintf(

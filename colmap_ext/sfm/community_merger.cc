@@ -491,8 +491,11 @@ MergedModelRefinementSummary RefineMergedModel(
   // is not repeated).
   std::vector<size_t> num_tried_shared_images;
   const auto register_offered_blocks = [&]() {
+    if (!options.register_offered_blocks) {
+      return;
+    }
     for (size_t k = 0; k < offered_models.size(); ++k) {
-      if (block_registered[k] || !options.register_offered_blocks) {
+      if (block_registered[k]) {
         continue;
       }
       const Reconstruction& model = *offered_models[k];
