@@ -34,6 +34,9 @@ Scenes (default: small medium):
     sbF_S                  a fraction F% of the photographs kept, chosen
                            with seed S, e.g. sb60_2; the group `sb_subsets`
                            runs ten of them (50-75%)
+  A generated scene with `_sS` appended (e.g. chain_s7) is the same kind of
+  scene drawn with seed S: another layout and other noise, to tell a
+  method's systematic error from one draw's luck.
   `generated` and `real` stand for all scenes of the kind, `issue11` for
   courtyard chain dense castle herzjesu southbuilding.
 
@@ -124,6 +127,20 @@ SUBSETS = {f"sb{round(100 * fraction)}_{seed}": (fraction, seed)
                                   (0.6, 6), (0.6, 7), (0.6, 8), (0.7, 9),
                                   (0.7, 10), (0.75, 3)]}
 SUBSET_PATTERN = re.compile(r"^sb(\d+)_(\d+)$")
+# A generated scene drawn with another seed: NAME_sSEED.
+SEED_PATTERN = re.compile(r"^([a-z_]+)_s(\d+)$")
+
+
+def generated_knobs(name):
+    """The scene generator's knobs of a generated scene (None if `name` is
+    not one), with the seed of a NAME_sSEED variant."""
+    if name in SCENES:
+        return dict(COMMON, **SCENES[name])
+    match = SEED_PATTERN.match(name)
+    if match and match.group(1) in SCENES:
+        return dict(dict(COMMON, **SCENES[match.group(1)]),
+                    seed=int(match.group(2)))
+    return None
 
 GROUPS = {
     "generated": ["small", "medium", "courtyard", "chain", "dense"],
@@ -263,7 +280,7 @@ def generate_scene(name, out_dir):
     """Generates the scene; returns (database, images, ground truth, number
     of images, knobs)."""
     scene_dir = os.path.join(out_dir, name, "scene")
-    knobs = dict(COMMON, **SCENES[name])
+    knobs = generated_knobs(name)
     log(f"== Scene {name}: {knobs}")
     arguments = [SCENE_GENERATOR, "--output_path", scene_dir,
                  "--overwrite", "1"]
@@ -676,7 +693,7 @@ def main():
     for scene in (["quick"] if arguments.quick else
                   (arguments.scenes or default_scenes)):
         for member in GROUPS.get(scene, [scene]):
-            if (member not in SCENES and member not in REAL and
+            if (generated_knobs(member) is None and member not in REAL and
                     not SUBSET_PATTERN.match(member)):
                 parser.error(f"unknown scene {member}")
             photos = "southbuilding" if SUBSET_PATTERN.match(member) \

@@ -464,7 +464,24 @@ MergedModelRefinementSummary RefineMergedModel(
                             timer.ElapsedSeconds(),
                             ProcessMemoryToString(ReadProcessMemory()).c_str());
 
-  auto mapper = std::make_unique<IncrementalMapper>(load_correspondences());
+  // Step (2) deletes every point. Where no image is left to register before
+  // it (every image of the correspondence graph is registered and no model
+  // is offered), they are deleted before the mapper starts: its start counts
+  // the correspondences of every observation, for points about to go (3 s
+  // on a generated dense scene of 560 images).
+  std::shared_ptr<const DatabaseCache> database_cache = load_correspondences();
+  if (offered_models.empty() &&
+      std::all_of(database_cache->Images().begin(),
+                  database_cache->Images().end(),
+                  [&](const auto& image) {
+                    return reconstruction->ExistsImage(image.first) &&
+                           reconstruction->IsImageRegistered(image.first);
+                  })) {
+    for (const point3D_t point3D_id : reconstruction->Point3DIds()) {
+      reconstruction->DeletePoint3D(point3D_id);
+    }
+  }
+  auto mapper = std::make_unique<IncrementalMapper>(std::move(database_cache));
   mapper->BeginReconstruction(reconstruction);
 
   // Images that no community registered (those of communities without a
