@@ -12,7 +12,24 @@ import tempfile
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
+def check_seed_variants():
+    """NAME_sS draws a generated scene of kind NAME with seed S, its other
+    knobs unchanged; anything else is not a generated scene."""
+    sys.path.insert(0, os.path.join(ROOT, "scripts"))
+    import benchmark
+    chain = benchmark.generated_knobs("chain")
+    chain7 = benchmark.generated_knobs("chain_s7")
+    assert chain7["seed"] == 7 and chain["seed"] != 7, (chain, chain7)
+    assert dict(chain7, seed=chain["seed"]) == chain, chain7
+    # A scene whose own knobs set a seed takes the variant's.
+    assert benchmark.generated_knobs("courtyard_s9")["seed"] == 9
+    assert benchmark.generated_knobs("huge_loop_s2")["close_loop"] == 1
+    for name in ("castle", "sb60_2", "nosuchscene_s3", "chain_s"):
+        assert benchmark.generated_knobs(name) is None, name
+
+
 def main():
+    check_seed_variants()
     out = tempfile.mkdtemp(prefix="benchmark_quick_")
     subprocess.run([sys.executable, os.path.join(ROOT, "scripts",
                                                  "benchmark.py"),
