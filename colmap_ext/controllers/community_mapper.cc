@@ -716,11 +716,14 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
     double* refinement_seconds) {
   Models& models = *models_ptr;
   const int num_communities = static_cast<int>(models.size());
-  // Images an earlier part's model registered.
+  // The models written, and the images they registered (which later parts
+  // and communities leave out).
+  std::vector<std::shared_ptr<Reconstruction>> merged_models;
   std::unordered_set<image_t> registered_image_ids;
-  const auto add_registered_images = [&](const Reconstruction& model) {
-    registered_image_ids.insert(model.RegImageIds().begin(),
-                                model.RegImageIds().end());
+  const auto keep_model = [&](std::shared_ptr<Reconstruction> model) {
+    registered_image_ids.insert(model->RegImageIds().begin(),
+                                model->RegImageIds().end());
+    merged_models.push_back(std::move(model));
   };
   // Community c's model restricted to its own images that no earlier
   // model registered: `model` (its copy in memory), or as its stage wrote
@@ -735,7 +738,6 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
         ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
         std::move(model));
   };
-  std::vector<std::shared_ptr<Reconstruction>> merged_models;
   for (int part = 0; part < averaging.NumParts(); ++part) {
     std::vector<int> part_communities;
     size_t num_left_images = 0;
@@ -798,8 +800,7 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
             c);
         continue;
       }
-      add_registered_images(*model);
-      merged_models.push_back(std::move(model));
+      keep_model(std::move(model));
       continue;
     }
     try {
@@ -836,8 +837,7 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
             part);
         continue;
       }
-      add_registered_images(*merged);
-      merged_models.push_back(std::move(merged));
+      keep_model(std::move(merged));
     } catch (const std::exception& error) {
       // Nothing is lost: the part's communities, as their stage wrote them,
       // become models of their own.
@@ -847,8 +847,7 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
         std::shared_ptr<Reconstruction> model =
             left_model(c, /*model=*/nullptr);
         if (model->NumRegImages() >= 2) {
-          add_registered_images(*model);
-          merged_models.push_back(std::move(model));
+          keep_model(std::move(model));
         }
       }
     }
@@ -866,8 +865,7 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
           "registered keep its model, as a model of its own",
           c,
           static_cast<int>(model->NumRegImages()));
-      add_registered_images(*model);
-      merged_models.push_back(std::move(model));
+      keep_model(std::move(model));
     }
   }
 
