@@ -224,6 +224,17 @@ TEST_F(CommunityMapperEndToEnd, WritesWhatUsersOpen) {
   // The camera centres coloured by community.
   Reconstruction model;
   model.Read(JoinPaths(*output_path_, "0"));
+  // Every point is in front of the cameras that observe it and within the
+  // mapper's reprojection error bound (--Mapper.filter_max_reproj_error 4),
+  // as after the incremental mapper: what model_analyzer and the GUI show.
+  for (const auto& point3D : model.Points3D()) {
+    EXPECT_LE(point3D.second.error, 4.0) << point3D.first;
+    for (const TrackElement& element : point3D.second.track.Elements()) {
+      const Image& image = model.Image(element.image_id);
+      EXPECT_GT((image.CamFromWorld() * point3D.second.xyz).z(), 0)
+          << point3D.first;
+    }
+  }
   const std::string ply = ReadFile(JoinPaths(*output_path_, "communities.ply"));
   EXPECT_NE(
       ply.find("element vertex " + std::to_string(model.NumRegImages()) + "\n"),

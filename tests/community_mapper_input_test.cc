@@ -168,6 +168,12 @@ TEST_F(CommunityMapperInputTest, InvalidOptionValues) {
                 "--CommunityMapper.min_community_size 1",
                 "min_community_size is 1: it must be at least 2");
   ExpectRefusal(good_database_,
+                "--CommunityMapper.max_community_fraction 0",
+                "max_community_fraction is 0: it must be in (0, 1]");
+  ExpectRefusal(good_database_,
+                "--CommunityMapper.max_part_conductance 1.5",
+                "max_part_conductance is 1.5: it must be in (0, 1]");
+  ExpectRefusal(good_database_,
                 "--CommunityMapper.edge_weights inliers",
                 "edge_weights is 'inliers': use 'unit' or 'num_inliers'");
   ExpectRefusal(
@@ -292,6 +298,7 @@ TEST_F(CommunityMapperInputTest, HelpListsEveryOptionWithItsDefault) {
   for (const std::string option :
        {"--CommunityMapper.modularity_threshold arg (=0.29999",
         "--CommunityMapper.min_community_size arg (=20)",
+        "--CommunityMapper.max_part_conductance arg (=0.2999",
         "--CommunityMapper.min_num_matches arg (=-1)",
         "--CommunityMapper.edge_weights arg (=unit)",
         "--CommunityMapper.partition_only arg (=0)",

@@ -39,6 +39,20 @@ bool CheckCommandOptions(const CommunityMapperCommand& command) {
         "(the CSfM paper uses 20).",
         options.community_detection.min_community_size));
   }
+  if (!(options.community_detection.max_community_fraction > 0 &&
+        options.community_detection.max_community_fraction <= 1)) {
+    fail(StringPrintf(
+        "--CommunityMapper.max_community_fraction is %g: it must be in (0, 1] "
+        "(1: split by the threshold only).",
+        options.community_detection.max_community_fraction));
+  }
+  if (!(options.community_detection.max_part_conductance > 0 &&
+        options.community_detection.max_part_conductance <= 1)) {
+    fail(StringPrintf(
+        "--CommunityMapper.max_part_conductance is %g: it must be in (0, 1] "
+        "(1: split by the threshold only).",
+        options.community_detection.max_part_conductance));
+  }
   if (options.min_num_matches != -1 && options.min_num_matches < 1) {
     fail(StringPrintf(
         "--CommunityMapper.min_num_matches is %d: it must be positive, or -1 "
@@ -266,6 +280,7 @@ std::string PlanOptions(const std::string& project_ini) {
       "modularity_threshold",
       "min_community_size",
       "max_community_fraction",
+      "max_part_conductance",
       "min_num_matches",
       "edge_weights",
       "image_overlap",
@@ -575,6 +590,10 @@ void ParseCommand(int argc,
       "a (sub)graph holding more than this fraction of its connected "
       "component is split at its modularity peak even below the threshold, "
       "so that no community sets the pace alone (1: threshold only)");
+  add("max_part_conductance",
+      &mapper_options.community_detection.max_part_conductance,
+      "a split by the threshold is refused where a part has more than this "
+      "share of its edges to the other parts (1: threshold only)");
   add("min_num_matches",
       &mapper_options.min_num_matches,
       "minimum verified inliers of a view-graph edge (-1: "

@@ -178,6 +178,34 @@ void MergeSmallCommunities(const WeightedGraph& graph,
   }
 }
 
+// The largest conductance cut(P) / vol(P) of the parts P of `membership`
+// (labels of the vertices of `graph`), with cut and volume taken within
+// `graph` (weighted) and the parts under min_size counted with the sibling
+// MergeSmallCommunities gives them. 0 for one part.
+double MaxPartConductance(const WeightedGraph& graph,
+                          const int min_size,
+                          std::vector<int> membership) {
+  MergeSmallCommunities(graph, min_size, &membership);
+  std::map<int, double> cut;
+  std::map<int, double> volume;
+  for (const auto& edge : graph.edges) {
+    const int label1 = membership[edge.vertex1];
+    const int label2 = membership[edge.vertex2];
+    volume[label1] += edge.weight;
+    volume[label2] += edge.weight;
+    if (label1 != label2) {
+      cut[label1] += edge.weight;
+      cut[label2] += edge.weight;
+    }
+  }
+  double max_conductance = 0.0;
+  for (const auto& label_and_cut : cut) {
+    max_conductance = std::max(
+        max_conductance, label_and_cut.second / volume.at(label_and_cut.first));
+  }
+  return max_conductance;
+}
+
 }  // namespace
 
 GraphPartitioner::Result GreedyModularityPartitioner::Partition(
@@ -225,6 +253,8 @@ bool CommunityDetectionOptions::Check() const {
   CHECK_OPTION_GE(max_recursion_depth, 0);
   CHECK_OPTION_GT(max_community_fraction, 0.0);
   CHECK_OPTION_LE(max_community_fraction, 1.0);
+  CHECK_OPTION_GT(max_part_conductance, 0.0);
+  CHECK_OPTION_LE(max_part_conductance, 1.0);
   return true;
 }
 
@@ -296,8 +326,14 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
       record.num_edges = static_cast<int>(subgraph.edges.size());
       record.modularity = result.modularity;
       record.num_parts = result.num_communities;
-      record.accepted = result.num_communities > 1 &&
-                        result.modularity > options.modularity_threshold;
+      // A split by the threshold whose parts are all communities.
+      if (result.num_communities > 1 &&
+          result.modularity > options.modularity_threshold) {
+        record.max_part_conductance = MaxPartConductance(
+            subgraph, options.min_community_size, result.membership);
+        record.accepted =
+            record.max_part_conductance <= options.max_part_conductance;
+      }
       if (!record.accepted && result.num_communities > 1 && !current.balanced &&
           current.vertices.size() >
               options.max_community_fraction * current.component_size) {
@@ -311,16 +347,21 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
       }
       partition.splits.push_back(record);
       LOG(INFO) << StringPrintf(
-          "%*sSplit %d images (%d edges): Qmax = %.4f, %d parts -> %s",
+          "%*sSplit %d images (%d edges): Qmax = %.4f, %d parts (largest "
+          "conductance %.3f) -> %s",
           2 * current.depth,
           "",
           record.num_vertices,
           record.num_edges,
           record.modularity,
           record.num_parts,
-          record.balance    ? "split (more than its share of the component)"
-          : record.accepted ? "split"
-                            : "kept as one community");
+          record.max_part_conductance,
+          record.balance ? "split (more than its share of the component)"
+          : record.accepted
+              ? "split"
+              : (record.max_part_conductance > options.max_part_conductance
+                     ? "kept as one community (a part is no community)"
+                     : "kept as one community"));
 
       if (record.accepted) {
         split = true;

@@ -1,5 +1,11 @@
 #include "colmap_ext/graph/community_detection.h"
 
+#include "colmap_ext/scene/synthetic_scene.h"
+#include "colmap_ext/util/testing.h"
+
+#include "colmap/util/misc.h"
+
+#include <map>
 #include <random>
 #include <set>
 
@@ -425,6 +431,121 @@ TEST(ExtendCommunities, BorrowsTheBestConnectedBorderImages) {
   EXPECT_EQ(std::set<int>(all[0].begin(), all[0].end()).size(), 20);
 }
 
+// Three cliques of 10 in a row, the middle one joined to each end one by 30
+// edges: Qmax is above 0.3, but the middle part has 40% of its edges to the
+// others: it is not a community.
+WeightedGraph ThreeCliquesInARow() {
+  WeightedGraph graph;
+  for (int first : {0, 10, 20}) {
+    AddClique(first, /*size=*/10, /*weight=*/1, &graph);
+  }
+  for (int i = 0; i < 30; ++i) {
+    graph.edges.push_back({i % 10, 10 + (i % 10 + i / 10) % 10, 1});
+    graph.edges.push_back({20 + i % 10, 10 + (i % 10 + i / 10 + 5) % 10, 1});
+  }
+  return graph;
+}
+
+TEST(DetectCommunities, SplitWhosePartsAreNotCommunitiesIsRefused) {
+  CommunityDetectionOptions options = Options(/*min_community_size=*/5);
+  options.max_community_fraction = 1;  // no balance split
+  options.max_part_conductance = 1;    // the threshold alone, as the paper
+  const CommunityPartition paper = DetectCommunities(
+      ThreeCliquesInARow(), GreedyModularityPartitioner(), options);
+  ASSERT_EQ(paper.NumCommunities(), 3);
+  ASSERT_FALSE(paper.splits.empty());
+  EXPECT_GT(paper.splits[0].modularity, 0.3);
+  EXPECT_NEAR(paper.splits[0].max_part_conductance, 0.4, 1e-9);
+
+  options.max_part_conductance = 0.3;
+  const CommunityPartition refused = DetectCommunities(
+      ThreeCliquesInARow(), GreedyModularityPartitioner(), options);
+  EXPECT_EQ(refused.NumCommunities(), 1);
+  ASSERT_EQ(refused.splits.size(), 1u);
+  EXPECT_FALSE(refused.splits[0].accepted);
+  EXPECT_NEAR(refused.splits[0].max_part_conductance, 0.4, 1e-9);
+
+  // Holding its whole component, the graph is still cut for the parallel
+  // work (the balance rule), into CNM's parts.
+  options.max_community_fraction = 0.5;
+  const CommunityPartition balanced = DetectCommunities(
+      ThreeCliquesInARow(), GreedyModularityPartitioner(), options);
+  EXPECT_EQ(balanced.NumCommunities(), 3);
+  ASSERT_FALSE(balanced.splits.empty());
+  EXPECT_TRUE(balanced.splits[0].balance);
+  options.max_community_fraction = 1;
+
+  // Clear communities are split as before: two cliques joined by one edge.
+  WeightedGraph two_cliques;
+  AddClique(/*first=*/0, /*size=*/25, /*weight=*/1, &two_cliques);
+  AddClique(/*first=*/25, /*size=*/25, /*weight=*/1, &two_cliques);
+  two_cliques.edges.push_back({3, 30, 1});
+  EXPECT_EQ(
+      DetectCommunities(two_cliques, GreedyModularityPartitioner(), options)
+          .NumCommunities(),
+      2);
+}
+
+// The smallest share of a landmark cluster's images that one community
+// holds, over the clusters of a generated open chain (the benchmark's
+// `chain_s1`: 4 landmarks of 80 images, walkways of 60).
+double SmallestClusterShareInOneCommunity(
+    const CommunityDetectionOptions& options) {
+  SyntheticSceneOptions scene_options;
+  scene_options.num_clusters = 4;
+  scene_options.num_images_per_cluster = 80;
+  scene_options.num_images_per_link = 60;
+  scene_options.close_loop = false;
+  scene_options.single_camera = false;
+  scene_options.focal_length_noise = 0.05;
+  scene_options.keypoint_noise = 1.0;
+  scene_options.outlier_match_ratio = 0.08;
+  scene_options.num_false_pairs = 30;
+  scene_options.seed = 1;
+  Database database(JoinPaths(CreateTestFolder(), "database.db"));
+  SyntheticScene scene;
+  SynthesizeCommunityScene(scene_options, &scene, &database);
+  const ViewGraph view_graph = ViewGraph::Read(database, 15);
+  const CommunityPartition partition =
+      DetectCommunities(view_graph.ToWeightedGraph(ViewGraphEdgeWeight::kUnit),
+                        GreedyModularityPartitioner(),
+                        options);
+
+  // Images per (cluster, community).
+  std::map<int, std::map<int, int>> counts;
+  for (int vertex = 0; vertex < static_cast<int>(view_graph.NumVertices());
+       ++vertex) {
+    const int cluster =
+        scene.image_cluster.at(view_graph.ImageIds().at(vertex));
+    if (cluster >= 0) {
+      ++counts[cluster][partition.membership[vertex]];
+    }
+  }
+  double smallest_share = 1.0;
+  for (const auto& cluster_and_counts : counts) {
+    int total = 0;
+    int largest = 0;
+    for (const auto& community_and_count : cluster_and_counts.second) {
+      total += community_and_count.second;
+      largest = std::max(largest, community_and_count.second);
+    }
+    smallest_share =
+        std::min(smallest_share, static_cast<double>(largest) / total);
+  }
+  return smallest_share;
+}
+
+TEST(DetectCommunities, LandmarkClustersOfAnOpenChainAreNotCutInHalf) {
+  // The paper's rule alone cuts a landmark cluster in two at Qmax 0.30-0.33
+  // (halves sharing 966 of their edges on this draw).
+  CommunityDetectionOptions paper;
+  paper.max_part_conductance = 1;
+  EXPECT_LT(SmallestClusterShareInOneCommunity(paper), 0.8);
+  // With the conductance rule every cluster stays (almost) whole.
+  EXPECT_GT(SmallestClusterShareInOneCommunity(CommunityDetectionOptions()),
+            0.9);
+}
+
 TEST(CommunityDetectionOptions, Check) {
   CommunityDetectionOptions options;
   EXPECT_TRUE(options.Check());
@@ -434,6 +555,11 @@ TEST(CommunityDetectionOptions, Check) {
   EXPECT_FALSE(options.Check());
   options.modularity_threshold = 0.3;
   options.min_community_size = 1;
+  EXPECT_FALSE(options.Check());
+  options.min_community_size = 20;
+  options.max_part_conductance = 0;
+  EXPECT_FALSE(options.Check());
+  options.max_part_conductance = 1.5;
   EXPECT_FALSE(options.Check());
 }
 

@@ -29,14 +29,17 @@ std::string CommunitiesToText(const ViewGraph& view_graph,
       "share of the component (balance); depth 0 is a whole component):\n",
       modularity_threshold);
   for (const CommunityPartition::Split& split : partition.splits) {
-    text << StringPrintf("#   depth %d: %d images, Qmax %.4f, %d parts, %s\n",
-                         split.depth,
-                         split.num_vertices,
-                         split.modularity,
-                         split.num_parts,
-                         split.balance    ? "split (balance)"
-                         : split.accepted ? "split"
-                                          : "not split");
+    text << StringPrintf(
+        "#   depth %d: %d images, Qmax %.4f, %d parts (largest conductance "
+        "%.3f), %s\n",
+        split.depth,
+        split.num_vertices,
+        split.modularity,
+        split.num_parts,
+        split.max_part_conductance,
+        split.balance    ? "split (balance)"
+        : split.accepted ? "split"
+                         : "not split");
   }
   const std::vector<std::vector<int>> communities = partition.Communities();
   text << StringPrintf(
