@@ -53,6 +53,13 @@ bool CheckCommandOptions(const CommunityMapperCommand& command) {
         "(1: split by the threshold only).",
         options.community_detection.max_part_conductance));
   }
+  if (!(options.community_detection.max_joined_part_fraction >= 0 &&
+        options.community_detection.max_joined_part_fraction < 1)) {
+    fail(StringPrintf(
+        "--CommunityMapper.max_joined_part_fraction is %g: it must be in "
+        "[0, 1).",
+        options.community_detection.max_joined_part_fraction));
+  }
   if (options.min_num_matches != -1 && options.min_num_matches < 1) {
     fail(StringPrintf(
         "--CommunityMapper.min_num_matches is %d: it must be positive, or -1 "
@@ -281,6 +288,7 @@ std::string PlanOptions(const std::string& project_ini) {
       "min_community_size",
       "max_community_fraction",
       "max_part_conductance",
+      "max_joined_part_fraction",
       "min_num_matches",
       "edge_weights",
       "image_overlap",
@@ -594,6 +602,10 @@ void ParseCommand(int argc,
       &mapper_options.community_detection.max_part_conductance,
       "a split by the threshold is refused where a part has more than this "
       "share of its edges to the other parts (1: threshold only)");
+  add("max_joined_part_fraction",
+      &mapper_options.community_detection.max_joined_part_fraction,
+      "such a part holding at most this fraction of the split graph joins "
+      "its most connected sibling instead (0: always refuse)");
   add("min_num_matches",
       &mapper_options.min_num_matches,
       "minimum verified inliers of a view-graph edge (-1: "

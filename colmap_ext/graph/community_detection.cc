@@ -178,32 +178,76 @@ void MergeSmallCommunities(const WeightedGraph& graph,
   }
 }
 
-// The largest conductance cut(P) / vol(P) of the parts P of `membership`
-// (labels of the vertices of `graph`), with cut and volume taken within
-// `graph` (weighted) and the parts under min_size counted with the sibling
-// MergeSmallCommunities gives them. 0 for one part.
-double MaxPartConductance(const WeightedGraph& graph,
-                          const int min_size,
-                          std::vector<int> membership) {
-  MergeSmallCommunities(graph, min_size, &membership);
-  std::map<int, double> cut;
-  std::map<int, double> volume;
-  for (const auto& edge : graph.edges) {
-    const int label1 = membership[edge.vertex1];
-    const int label2 = membership[edge.vertex2];
-    volume[label1] += edge.weight;
-    volume[label2] += edge.weight;
-    if (label1 != label2) {
-      cut[label1] += edge.weight;
-      cut[label2] += edge.weight;
+// Judges whether the parts of `membership` (labels of the vertices of
+// `graph`) are communities: the conductance cut(P) / vol(P) of every part P
+// within `graph` (weighted; the parts under min_size counted with the
+// sibling MergeSmallCommunities gives them) must be at most
+// max_conductance. While one is not, the worst part joins the sibling it
+// has the most edge weight to if it holds at most max_joined_fraction of
+// the vertices; a larger one refuses the split (returns false). Records the
+// largest conductance before any join and the number of joins.
+bool JoinSmallPartsThatAreNotCommunities(
+    const WeightedGraph& graph,
+    const CommunityDetectionOptions& options,
+    std::vector<int>* membership,
+    CommunityPartition::Split* record) {
+  record->max_part_conductance = -1.0;
+  while (true) {
+    std::vector<int> merged = *membership;
+    MergeSmallCommunities(graph, options.min_community_size, &merged);
+    std::map<int, int> sizes;
+    for (const int label : merged) {
+      ++sizes[label];
     }
+    std::map<int, double> volume;
+    std::map<int, std::map<int, double>> cross;
+    for (const auto& edge : graph.edges) {
+      const int label1 = merged[edge.vertex1];
+      const int label2 = merged[edge.vertex2];
+      volume[label1] += edge.weight;
+      volume[label2] += edge.weight;
+      if (label1 != label2) {
+        cross[label1][label2] += edge.weight;
+        cross[label2][label1] += edge.weight;
+      }
+    }
+    int worst = -1;
+    double worst_conductance = 0.0;
+    for (const auto& label_and_cross : cross) {
+      double cut = 0.0;
+      for (const auto& other_and_weight : label_and_cross.second) {
+        cut += other_and_weight.second;
+      }
+      const double conductance = cut / volume.at(label_and_cross.first);
+      if (conductance > worst_conductance) {
+        worst = label_and_cross.first;
+        worst_conductance = conductance;
+      }
+    }
+    if (record->max_part_conductance < 0) {
+      record->max_part_conductance = worst_conductance;
+    }
+    if (worst == -1 || worst_conductance <= options.max_part_conductance) {
+      return true;
+    }
+    if (sizes.at(worst) >
+        options.max_joined_part_fraction * graph.num_vertices) {
+      return false;
+    }
+    int target = -1;
+    for (const auto& other_and_weight : cross.at(worst)) {
+      if (target == -1 ||
+          other_and_weight.second > cross.at(worst).at(target)) {
+        target = other_and_weight.first;
+      }
+    }
+    for (size_t vertex = 0; vertex < merged.size(); ++vertex) {
+      if (merged[vertex] == worst) {
+        (*membership)[vertex] = target;
+      }
+    }
+    ++record->num_joined_parts;
   }
-  double max_conductance = 0.0;
-  for (const auto& label_and_cut : cut) {
-    max_conductance = std::max(
-        max_conductance, label_and_cut.second / volume.at(label_and_cut.first));
-  }
-  return max_conductance;
 }
 
 }  // namespace
@@ -255,6 +299,8 @@ bool CommunityDetectionOptions::Check() const {
   CHECK_OPTION_LE(max_community_fraction, 1.0);
   CHECK_OPTION_GT(max_part_conductance, 0.0);
   CHECK_OPTION_LE(max_part_conductance, 1.0);
+  CHECK_OPTION_GE(max_joined_part_fraction, 0.0);
+  CHECK_OPTION_LT(max_joined_part_fraction, 1.0);
   return true;
 }
 
@@ -326,13 +372,17 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
       record.num_edges = static_cast<int>(subgraph.edges.size());
       record.modularity = result.modularity;
       record.num_parts = result.num_communities;
-      // A split by the threshold whose parts are all communities.
+      // A split by the threshold whose parts are communities, once the
+      // small parts that are not have joined a sibling.
+      std::vector<int> membership = result.membership;
+      int num_parts = result.num_communities;
       if (result.num_communities > 1 &&
-          result.modularity > options.modularity_threshold) {
-        record.max_part_conductance = MaxPartConductance(
-            subgraph, options.min_community_size, result.membership);
-        record.accepted =
-            record.max_part_conductance <= options.max_part_conductance;
+          result.modularity > options.modularity_threshold &&
+          JoinSmallPartsThatAreNotCommunities(
+              subgraph, options, &membership, &record)) {
+        membership = RelabelBySize(membership);
+        num_parts = 1 + *std::max_element(membership.begin(), membership.end());
+        record.accepted = num_parts > 1;
       }
       if (!record.accepted && result.num_communities > 1 && !current.balanced &&
           current.vertices.size() >
@@ -344,11 +394,13 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
         std::sort(part_sizes.begin(), part_sizes.end(), std::greater<int>());
         record.balance = part_sizes[1] >= options.min_community_size;
         record.accepted = record.balance;
+        membership = result.membership;
+        num_parts = result.num_communities;
       }
       partition.splits.push_back(record);
       LOG(INFO) << StringPrintf(
           "%*sSplit %d images (%d edges): Qmax = %.4f, %d parts (largest "
-          "conductance %.3f) -> %s",
+          "conductance %.3f, %d joined) -> %s",
           2 * current.depth,
           "",
           record.num_vertices,
@@ -356,6 +408,7 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
           record.modularity,
           record.num_parts,
           record.max_part_conductance,
+          record.num_joined_parts,
           record.balance ? "split (more than its share of the component)"
           : record.accepted
               ? "split"
@@ -365,9 +418,9 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
 
       if (record.accepted) {
         split = true;
-        std::vector<std::vector<int>> parts(result.num_communities);
+        std::vector<std::vector<int>> parts(num_parts);
         for (int i = 0; i < subgraph.num_vertices; ++i) {
-          parts[result.membership[i]].push_back(current.vertices[i]);
+          parts[membership[i]].push_back(current.vertices[i]);
         }
         // A partitioner may return a community that is not connected; each
         // of its connected pieces is a community of its own.

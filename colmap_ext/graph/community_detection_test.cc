@@ -486,6 +486,42 @@ TEST(DetectCommunities, SplitWhosePartsAreNotCommunitiesIsRefused) {
       2);
 }
 
+TEST(DetectCommunities, SmallPartThatIsNotACommunityJoinsASibling) {
+  // Two cliques of 40 joined through a clique of 8 that has 40 edges to
+  // each: the connector is no community (conductance 40 * 2 / (56 + 80)),
+  // but holds less than a tenth of the graph; the two large cliques are.
+  WeightedGraph graph;
+  AddClique(/*first=*/0, /*size=*/40, /*weight=*/1, &graph);
+  AddClique(/*first=*/40, /*size=*/8, /*weight=*/1, &graph);
+  AddClique(/*first=*/48, /*size=*/40, /*weight=*/1, &graph);
+  for (int i = 0; i < 40; ++i) {
+    graph.edges.push_back({i, 40 + i % 8, 1});
+    graph.edges.push_back({48 + i, 40 + (i + 3) % 8, 1});
+  }
+  CommunityDetectionOptions options = Options(/*min_community_size=*/5);
+  options.max_community_fraction = 1;  // no balance split
+  options.max_part_conductance = 1;    // the threshold alone, as the paper
+  const CommunityPartition paper =
+      DetectCommunities(graph, GreedyModularityPartitioner(), options);
+  ASSERT_EQ(paper.NumCommunities(), 3);
+  EXPECT_EQ(NumCommunitiesAmong(paper, 40, 8), 1);
+
+  options.max_part_conductance = 0.3;
+  const CommunityPartition joined =
+      DetectCommunities(graph, GreedyModularityPartitioner(), options);
+  EXPECT_EQ(joined.NumCommunities(), 2);
+  ASSERT_FALSE(joined.splits.empty());
+  EXPECT_EQ(joined.splits[0].num_joined_parts, 1);
+  EXPECT_EQ(NumCommunitiesAmong(joined, 0, 40), 1);
+  EXPECT_EQ(NumCommunitiesAmong(joined, 48, 40), 1);
+  EXPECT_NE(joined.membership[0], joined.membership[48]);
+
+  options.max_joined_part_fraction = 0;
+  EXPECT_EQ(DetectCommunities(graph, GreedyModularityPartitioner(), options)
+                .NumCommunities(),
+            1);
+}
+
 // The smallest share of a landmark cluster's images that one community
 // holds, over the clusters of a generated open chain (the benchmark's
 // `chain_s1`: 4 landmarks of 80 images, walkways of 60).
@@ -560,6 +596,9 @@ TEST(CommunityDetectionOptions, Check) {
   options.max_part_conductance = 0;
   EXPECT_FALSE(options.Check());
   options.max_part_conductance = 1.5;
+  EXPECT_FALSE(options.Check());
+  options.max_part_conductance = 0.3;
+  options.max_joined_part_fraction = 1;
   EXPECT_FALSE(options.Check());
 }
 
