@@ -17,7 +17,8 @@
 //      connected community with the most view-graph edges to it.
 // Two rules are added. A split by the threshold is made only where its parts
 // are communities: none may have a conductance (the share of its edges'
-// weight that leads to the other parts) above max_part_conductance.
+// weight that leads to the other parts) above max_part_conductance, but a
+// small such part (a connecting piece) joins a sibling instead.
 // Modularity measures against a random graph, which a chain of overlapping
 // views beats without community structure (Guimera, Sales-Pardo and Amaral,
 // "Modularity from fluctuations in random graphs and complex networks",
