@@ -180,12 +180,13 @@ void MergeSmallCommunities(const WeightedGraph& graph,
 
 // Judges whether the parts of `membership` (labels of the vertices of
 // `graph`) are communities: the conductance cut(P) / vol(P) of every part P
-// within `graph` (weighted; the parts under min_size counted with the
-// sibling MergeSmallCommunities gives them) must be at most
-// max_conductance. While one is not, the worst part joins the sibling it
-// has the most edge weight to if it holds at most max_joined_fraction of
-// the vertices; a larger one refuses the split (returns false). Records the
-// largest conductance before any join and the number of joins.
+// within `graph` (weighted; the parts under min_community_size counted with
+// the sibling MergeSmallCommunities gives them) must be at most
+// max_part_conductance. While one is not, the worst part joins the sibling
+// it has the most edge weight to if it holds at most
+// max_joined_part_fraction of the vertices; a larger one refuses the split
+// (returns false). Records in `record` the largest conductance before any
+// join and the number of joins.
 bool JoinSmallPartsThatAreNotCommunities(
     const WeightedGraph& graph,
     const CommunityDetectionOptions& options,
