@@ -185,21 +185,18 @@ void MergeSmallCommunities(const WeightedGraph& graph,
 // max_part_conductance. While one is not, the worst part joins the sibling
 // it has the most edge weight to if it holds at most
 // max_joined_part_fraction of the vertices; a larger one refuses the split
-// (returns false). Records in `record` the largest conductance before any
-// join and the number of joins.
+// (returns false, `membership` unchanged). Records in `record` the largest
+// conductance before any join and, where the split stands, the number of
+// joins.
 bool JoinSmallPartsThatAreNotCommunities(
     const WeightedGraph& graph,
     const CommunityDetectionOptions& options,
     std::vector<int>* membership,
     CommunityPartition::Split* record) {
-  record->max_part_conductance = -1.0;
-  while (true) {
-    std::vector<int> merged = *membership;
+  std::vector<int> joined = *membership;
+  for (int num_joined = 0;; ++num_joined) {
+    std::vector<int> merged = joined;
     MergeSmallCommunities(graph, options.min_community_size, &merged);
-    std::map<int, int> sizes;
-    for (const int label : merged) {
-      ++sizes[label];
-    }
     std::map<int, double> volume;
     std::map<int, std::map<int, double>> cross;
     for (const auto& edge : graph.edges) {
@@ -225,29 +222,30 @@ bool JoinSmallPartsThatAreNotCommunities(
         worst_conductance = conductance;
       }
     }
-    if (record->max_part_conductance < 0) {
+    if (num_joined == 0) {
       record->max_part_conductance = worst_conductance;
     }
     if (worst == -1 || worst_conductance <= options.max_part_conductance) {
+      *membership = std::move(joined);
+      record->num_joined_parts = num_joined;
       return true;
     }
-    if (sizes.at(worst) >
-        options.max_joined_part_fraction * graph.num_vertices) {
+    const auto worst_size = std::count(merged.begin(), merged.end(), worst);
+    if (worst_size > options.max_joined_part_fraction * graph.num_vertices) {
       return false;
     }
-    int target = -1;
-    for (const auto& other_and_weight : cross.at(worst)) {
-      if (target == -1 ||
-          other_and_weight.second > cross.at(worst).at(target)) {
-        target = other_and_weight.first;
-      }
-    }
+    const std::map<int, double>& worst_cross = cross.at(worst);
+    const int target = std::max_element(worst_cross.begin(),
+                                        worst_cross.end(),
+                                        [](const auto& a, const auto& b) {
+                                          return a.second < b.second;
+                                        })
+                           ->first;
     for (size_t vertex = 0; vertex < merged.size(); ++vertex) {
       if (merged[vertex] == worst) {
-        (*membership)[vertex] = target;
+        joined[vertex] = target;
       }
     }
-    ++record->num_joined_parts;
   }
 }
 
@@ -395,6 +393,8 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
         std::sort(part_sizes.begin(), part_sizes.end(), std::greater<int>());
         record.balance = part_sizes[1] >= options.min_community_size;
         record.accepted = record.balance;
+        // CNM's parts as they are (even where small ones were joined into
+        // one part above).
         membership = result.membership;
         num_parts = result.num_communities;
       }

@@ -36,7 +36,10 @@ TEST(CommunitiesToText, ListsEveryImageOnceWithItsCommunity) {
   EXPECT_NE(text.find("# View graph: 6 images, 7 edges (unit weights)"),
             std::string::npos)
       << text;
-  EXPECT_NE(text.find("Qmax 0.3571, 2 parts (largest conductance 0.143, 0 joined), split"), std::string::npos)
+  EXPECT_NE(
+      text.find(
+          "Qmax 0.3571, 2 parts (largest conductance 0.143, 0 joined), split"),
+      std::string::npos)
       << text;
   EXPECT_NE(text.find("# 2 communities"), std::string::npos) << text;
   // Sorted by name.
