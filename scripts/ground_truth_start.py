@@ -11,7 +11,9 @@ exactly as M has them) and takes its poses and intrinsics from GT, moved
 into M's frame by the similarity that fits the camera centres; every point
 is triangulated anew (linear, from its whole track). `colmap
 bundle_adjuster` then runs from that start for each iteration count, and
-from M itself, with the same options. For each result the script prints the
+from M itself, with the same options (`bundle_adjuster` holds the gauge
+with the first image it reads: the first by name in the start model, the
+first in M's file for M). For each result the script prints the
 final cost (Ceres' RMS reprojection error) and the camera error against GT
 (build/model_evaluator).
 
