@@ -33,19 +33,18 @@ import sys
 
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-COLMAP = os.path.join(ROOT, "build", "colmap")
-EVALUATOR = os.path.join(ROOT, "build", "model_evaluator")
-# Camera models whose parameters start with focal length(s) and principal
-# point and whose remaining parameters are distortion (ignored for the
-# linear triangulation of the start; the adjustment refines from there).
-FOCAL_PRINCIPAL = {
-    "SIMPLE_PINHOLE": (1, 1),
-    "SIMPLE_RADIAL": (1, 1),
-    "RADIAL": (1, 1),
-    "PINHOLE": (2, 2),
-    "OPENCV": (2, 2),
-    "FULL_OPENCV": (2, 2),
+from benchmark import COLMAP, MODEL_EVALUATOR, evaluate
+
+# Camera models whose parameters are their focal lengths (this many), the
+# principal point, then distortion (ignored for the linear triangulation of
+# the start; the adjustment refines from there).
+NUM_FOCAL_LENGTHS = {
+    "SIMPLE_PINHOLE": 1,
+    "SIMPLE_RADIAL": 1,
+    "RADIAL": 1,
+    "PINHOLE": 2,
+    "OPENCV": 2,
+    "FULL_OPENCV": 2,
 }
 
 
@@ -117,7 +116,7 @@ def fit_similarity(src, dst):
 
 
 def write_start(model_txt, gt_txt, out):
-    cameras, images = read_text_model(model_txt)
+    _, images = read_text_model(model_txt)
     gt_cameras, gt_images = read_text_model(gt_txt)
     names = sorted(images)
     missing = [n for n in names if n not in gt_images]
@@ -136,12 +135,12 @@ def write_start(model_txt, gt_txt, out):
             gt_camera = gt_cameras[gt_images[n]["camera_id"]]
             if camera_id in intrinsics:
                 continue
-            if gt_camera[0] not in FOCAL_PRINCIPAL:
+            if gt_camera[0] not in NUM_FOCAL_LENGTHS:
                 sys.exit("error: camera model %s of the ground truth is not "
                          "supported (%s)" % (gt_camera[0],
-                                            ", ".join(FOCAL_PRINCIPAL)))
+                                            ", ".join(NUM_FOCAL_LENGTHS)))
             params = np.array(gt_camera[3:], dtype=float)
-            nf, _ = FOCAL_PRINCIPAL[gt_camera[0]]
+            nf = NUM_FOCAL_LENGTHS[gt_camera[0]]
             intrinsics[camera_id] = (params[0], params[nf - 1], params[nf],
                                      params[nf + 1])
             f.write(" ".join([str(camera_id)] + gt_camera) + "\n")
@@ -164,15 +163,11 @@ def write_start(model_txt, gt_txt, out):
             track = np.array(v[8:], dtype=int).reshape(-1, 2)
             rows = []
             for image_id, point2D_idx in track:
-                if image_id not in poses:
-                    continue
                 rotation, translation, im = poses[image_id]
                 fx, fy, cx, cy = intrinsics[im["camera_id"]]
                 x, y = im["points2D"][point2D_idx, :2]
                 p = np.hstack([rotation, translation[:, None]])
                 rows += [(x - cx) / fx * p[2] - p[0], (y - cy) / fy * p[2] - p[1]]
-            if len(rows) < 4:
-                continue
             xyz = np.linalg.svd(np.array(rows))[2][-1]
             xyz = xyz[:3] / xyz[3]
             fout.write("%s %s %s %s\n" % (v[0], " ".join(map(repr, xyz)),
@@ -193,16 +188,6 @@ def adjust(start, out, iterations, log):
     return dict(costs)
 
 
-def evaluate(model, gt):
-    out = subprocess.run([EVALUATOR, "--model_path", model,
-                          "--ground_truth_path", gt], check=True,
-                         capture_output=True, text=True).stdout
-    values = dict(l.split()[:2] for l in out.splitlines() if len(l.split()) > 1)
-    return [values.get(k, "nan") for k in
-            ("median_position_error", "p90_position_error",
-             "median_rotation_error_deg")]
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--model", required=True)
@@ -210,7 +195,7 @@ def main():
     parser.add_argument("--out", required=True)
     parser.add_argument("--iterations", default="10,50,200")
     args = parser.parse_args()
-    for tool in (COLMAP, EVALUATOR):
+    for tool in (COLMAP, MODEL_EVALUATOR):
         if not os.path.exists(tool):
             sys.exit("error: %s not found: build first (scripts/build.sh)" % tool)
     iterations = [int(i) for i in args.iterations.split(",")]
@@ -228,10 +213,11 @@ def main():
     for label, source, i in runs:
         out = os.path.join(args.out, "%s_%d" % (label.split()[-1], i))
         cost = adjust(source, out, i, out + ".log")
-        median, p90, rotation = evaluate(out, args.ground_truth)
-        print("| %s | %d | %s | %s | %s / %s | %s |" % (
+        errors = evaluate(out, args.ground_truth, out + "_centers.txt")
+        print("| %s | %d | %s | %s | %.6f / %.6f | %.6f |" % (
             label, i, cost.get("Initial", "?"), cost.get("Final", "?"),
-            median, p90, rotation))
+            errors["median_position_error"], errors["p90_position_error"],
+            errors["median_rotation_error_deg"]))
 
 
 if __name__ == "__main__":
