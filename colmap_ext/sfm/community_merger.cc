@@ -280,15 +280,11 @@ bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, problem.get(), &summary);
   LOG(INFO) << StringPrintf(
-      "Bundle adjustment of %d images, %d residuals: %d iterations, cost "
-      "%.4g -> %.4g, %.1fs (%s)",
+      "Bundle adjustment of %d images, %d residuals: %s",
       static_cast<int>(reg_image_ids.size()),
       problem->NumResiduals(),
-      static_cast<int>(summary.iterations.size()),
-      summary.initial_cost,
-      summary.final_cost,
-      timer.ElapsedSeconds(),
-      ceres::LinearSolverTypeToString(solver_options.linear_solver_type));
+      SolverSummaryToString(solver_options, summary, timer.ElapsedSeconds())
+          .c_str());
   return summary.IsSolutionUsable();
 }
 

@@ -113,6 +113,30 @@ std::unordered_set<point3D_t> SelectBundleTracks(
   return selected;
 }
 
+std::string SolverSummaryToString(const ceres::Solver::Options& options,
+                                  const ceres::Solver::Summary& summary,
+                                  const double seconds) {
+  std::string stopped;
+  switch (summary.termination_type) {
+    case ceres::CONVERGENCE:
+      stopped = "converged";
+      break;
+    case ceres::NO_CONVERGENCE:
+      stopped = "iteration limit";
+      break;
+    default:
+      stopped = summary.message;
+  }
+  return StringPrintf(
+      "%d iterations, cost %.4g -> %.4g, %.1fs (%s, %s)",
+      static_cast<int>(summary.iterations.size()),
+      summary.initial_cost,
+      summary.final_cost,
+      seconds,
+      ceres::LinearSolverTypeToString(options.linear_solver_type),
+      stopped.c_str());
+}
+
 bool AdjustCamerasOnTracks(const BundleAdjustmentOptions& ba_options,
                            ceres::Solver::Options solver_options,
                            const std::unordered_set<point3D_t>& point3D_ids,
@@ -193,17 +217,13 @@ bool AdjustCamerasOnTracks(const BundleAdjustmentOptions& ba_options,
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &problem, &summary);
   LOG(INFO) << StringPrintf(
-      "Bundle adjustment of %d images on %d of %d points, %d residuals: %d "
-      "iterations, cost %.4g -> %.4g, %.1fs (%s)",
+      "Bundle adjustment of %d images on %d of %d points, %d residuals: %s",
       static_cast<int>(image_ids.size()),
       static_cast<int>(point3D_ids.size()),
       static_cast<int>(reconstruction->NumPoints3D()),
       problem.NumResiduals(),
-      static_cast<int>(summary.iterations.size()),
-      summary.initial_cost,
-      summary.final_cost,
-      timer.ElapsedSeconds(),
-      ceres::LinearSolverTypeToString(solver_options.linear_solver_type));
+      SolverSummaryToString(solver_options, summary, timer.ElapsedSeconds())
+          .c_str());
   return summary.IsSolutionUsable();
 }
 

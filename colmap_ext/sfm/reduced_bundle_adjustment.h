@@ -31,6 +31,7 @@
 #include "colmap/estimators/bundle_adjustment.h"
 #include "colmap/scene/reconstruction.h"
 
+#include <string>
 #include <unordered_set>
 
 namespace colmap {
@@ -62,6 +63,15 @@ struct TrackSelectionOptions {
 // images as described above.
 std::unordered_set<point3D_t> SelectBundleTracks(
     const TrackSelectionOptions& options, const Reconstruction& reconstruction);
+
+// What a bundle adjustment's solve did, for the log: "N iterations, cost
+// A -> B, Ts (LINEAR_SOLVER, how it stopped)", where it stopped by its
+// convergence tolerances, at its iteration limit (the cost still falling by
+// more than the function tolerance: a weakly constrained model may still be
+// moving), or otherwise (Ceres' message).
+std::string SolverSummaryToString(const ceres::Solver::Options& options,
+                                  const ceres::Solver::Summary& summary,
+                                  double seconds);
 
 // Adjusts the poses of all registered images, the intrinsics of their
 // cameras (as `ba_options` says which to refine) and the given points, on

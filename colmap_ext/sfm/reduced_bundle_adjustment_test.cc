@@ -245,5 +245,28 @@ TEST(RefinePointsWithFixedCameras, LeavesCamerasAndExcludedPointsAlone) {
             0.8 * perturbed.ComputeMeanReprojectionError());
 }
 
+TEST(SolverSummaryToString, SaysHowTheSolveStopped) {
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::SPARSE_SCHUR;
+  ceres::Solver::Summary summary;
+  summary.iterations.resize(51);
+  summary.initial_cost = 2.5e5;
+  summary.final_cost = 2.4e5;
+  summary.termination_type = ceres::NO_CONVERGENCE;
+  EXPECT_EQ(SolverSummaryToString(options, summary, 13.75),
+            "51 iterations, cost 2.5e+05 -> 2.4e+05, 13.8s (SPARSE_SCHUR, "
+            "iteration limit)");
+  summary.iterations.resize(4);
+  summary.termination_type = ceres::CONVERGENCE;
+  EXPECT_EQ(SolverSummaryToString(options, summary, 1.0),
+            "4 iterations, cost 2.5e+05 -> 2.4e+05, 1.0s (SPARSE_SCHUR, "
+            "converged)");
+  summary.termination_type = ceres::FAILURE;
+  summary.message = "Linear solver failed";
+  EXPECT_NE(
+      SolverSummaryToString(options, summary, 1.0).find("Linear solver failed"),
+      std::string::npos);
+}
+
 }  // namespace
 }  // namespace colmap
