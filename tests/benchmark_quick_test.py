@@ -5,6 +5,7 @@ for every method (not how fast anything is)."""
 import csv
 import math
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -26,6 +27,34 @@ def check_seed_variants():
     assert benchmark.generated_knobs("huge_loop_s2")["close_loop"] == 1
     for name in ("castle", "sb60_2", "nosuchscene_s3", "chain_s"):
         assert benchmark.generated_knobs(name) is None, name
+
+
+def check_ground_truth_start(out, community):
+    """scripts/ground_truth_start.py with build/model_adjuster on the quick
+    scene's merged model: one row per start, each cost with all its digits
+    and no higher after its adjustment than before, and the start from the
+    ground truth still near it after five iterations."""
+    result = subprocess.run(
+        [sys.executable, os.path.join(ROOT, "scripts", "ground_truth_start.py"),
+         "--model", os.path.join(out, "quick", "community", "0"),
+         "--ground_truth", os.path.join(out, "quick", "scene", "ground_truth"),
+         "--out", os.path.join(out, "ground_truth_start"), "--iterations", "5",
+         "--model_iterations", "2", "--adjuster", "model_adjuster"],
+        check=True, capture_output=True, text=True)
+    rows = [[cell.strip() for cell in line.strip("|").split("|")]
+            for line in result.stdout.splitlines()
+            if line.startswith(("| ground truth", "| the model"))]
+    assert [row[:2] for row in rows] == [["ground truth", "5"],
+                                         ["the model", "2"]], result.stdout
+    for row in rows:
+        costs = [re.fullmatch(r"(\d+\.\d{9}) \((\d\.\d{10}e[+-]\d+)\)", cell)
+                 for cell in row[2:4]]
+        assert all(costs), row
+        assert float(costs[1].group(2)) <= float(costs[0].group(2)), row
+    extent = float(community["median_pos_err"]) / max(
+        float(community["median_pos_err_frac"]), 1e-12)
+    median_from_truth = float(rows[0][4].split("/")[0])
+    assert 0 <= median_from_truth < 0.01 * extent, (rows[0], extent)
 
 
 def main():
@@ -72,6 +101,7 @@ def main():
         path = os.path.join(out, png)
         assert os.path.getsize(path) > 10000, path
         assert open(path, "rb").read(8) == b"\x89PNG\r\n\x1a\n", path
+    check_ground_truth_start(out, community)
     print(f"benchmark --quick reported every figure ({out})")
 
 
