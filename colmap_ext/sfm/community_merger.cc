@@ -260,30 +260,17 @@ bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
     return usable;
   }
 
-  BundleAdjustmentConfig config;
-  for (const image_t image_id : reg_image_ids) {
-    config.AddImage(image_id);
-  }
-  config.SetConstantCamPose(reg_image_ids[0]);
-  config.SetConstantCamPositions(reg_image_ids[1], {0});
-
-  BundleAdjuster bundle_adjuster(options, config);
-  const std::unique_ptr<ceres::LossFunction> loss_function(
-      options.CreateLossFunction());
-  bundle_adjuster.SetUpProblem(reconstruction, loss_function.get());
-  const std::shared_ptr<ceres::Problem> problem = bundle_adjuster.Problem();
-  if (problem->NumResiduals() == 0) {
+  const ceres::Solver::Summary summary =
+      AdjustAllObservations(options, solver_options, reconstruction);
+  if (summary.num_residuals <= 0) {
     return false;
   }
-  Timer timer;
-  timer.Start();
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, problem.get(), &summary);
   LOG(INFO) << StringPrintf(
       "Bundle adjustment of %d images, %d residuals: %s",
       static_cast<int>(reg_image_ids.size()),
-      problem->NumResiduals(),
-      SolverSummaryToString(solver_options, summary, timer.ElapsedSeconds())
+      summary.num_residuals,
+      SolverSummaryToString(
+          solver_options, summary, summary.total_time_in_seconds)
           .c_str());
   return summary.IsSolutionUsable();
 }

@@ -137,6 +137,41 @@ std::string SolverSummaryToString(const ceres::Solver::Options& options,
       stopped.c_str());
 }
 
+ceres::Solver::Summary AdjustAllObservations(
+    const BundleAdjustmentOptions& ba_options,
+    ceres::Solver::Options solver_options,
+    Reconstruction* reconstruction) {
+  THROW_CHECK_NOTNULL(reconstruction);
+  THROW_CHECK(ba_options.Check());
+  solver_options.num_threads =
+      GetEffectiveNumThreads(solver_options.num_threads);
+  std::string solver_error;
+  THROW_CHECK(solver_options.IsValid(&solver_error)) << solver_error;
+  ceres::Solver::Summary summary;
+  const std::vector<image_t>& reg_image_ids = reconstruction->RegImageIds();
+  if (reg_image_ids.size() < 2) {
+    summary.message = "fewer than two registered images";
+    return summary;
+  }
+  BundleAdjustmentConfig config;
+  for (const image_t image_id : reg_image_ids) {
+    config.AddImage(image_id);
+  }
+  config.SetConstantCamPose(reg_image_ids[0]);
+  config.SetConstantCamPositions(reg_image_ids[1], {0});
+  BundleAdjuster bundle_adjuster(ba_options, config);
+  const std::unique_ptr<ceres::LossFunction> loss_function(
+      ba_options.CreateLossFunction());
+  bundle_adjuster.SetUpProblem(reconstruction, loss_function.get());
+  const std::shared_ptr<ceres::Problem> problem = bundle_adjuster.Problem();
+  if (problem->NumResiduals() == 0) {
+    summary.message = "no observations";
+    return summary;
+  }
+  ceres::Solve(solver_options, problem.get(), &summary);
+  return summary;
+}
+
 bool AdjustCamerasOnTracks(const BundleAdjustmentOptions& ba_options,
                            ceres::Solver::Options solver_options,
                            const std::unordered_set<point3D_t>& point3D_ids,

@@ -87,6 +87,19 @@ bool AdjustCamerasOnTracks(const BundleAdjustmentOptions& ba_options,
                            const std::unordered_set<point3D_t>& point3D_ids,
                            Reconstruction* reconstruction);
 
+// COLMAP's global bundle adjustment, the counterpart of the above over all
+// observations: all registered images, the intrinsics of their cameras (as
+// `ba_options` says which to refine) and all points, with `ba_options`'
+// loss, the gauge fixed as COLMAP's mapper fixes it (the first registered
+// image's pose, one coordinate of the second's position), solved with
+// `solver_options` (num_threads -1 takes all cores). Returns Ceres' summary
+// (with fewer than two registered images or no observation, one that is not
+// usable, after no iteration).
+ceres::Solver::Summary AdjustAllObservations(
+    const BundleAdjustmentOptions& ba_options,
+    ceres::Solver::Options solver_options,
+    Reconstruction* reconstruction);
+
 // Refines every point of `reconstruction` outside `excluded_point3D_ids`
 // with all cameras fixed (least squares), in problems of at most
 // `max_points_per_problem` points. A point that the refinement would put

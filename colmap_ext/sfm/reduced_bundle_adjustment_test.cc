@@ -172,16 +172,9 @@ TEST(AdjustCamerasOnTracks, CamerasAsAccurateAsTheFullAdjustment) {
   Reconstruction full = Perturbed(ground_truth);
   const double perturbed_error =
       EvaluateModel(full, ground_truth).median_position_error;
-  {
-    BundleAdjustmentConfig config;
-    for (const image_t image_id : full.RegImageIds()) {
-      config.AddImage(image_id);
-    }
-    config.SetConstantCamPose(full.RegImageIds()[0]);
-    config.SetConstantCamPositions(full.RegImageIds()[1], {0});
-    BundleAdjuster adjuster(ba_options, config);
-    ASSERT_TRUE(adjuster.Solve(&full));
-  }
+  ASSERT_TRUE(
+      AdjustAllObservations(ba_options, ba_options.solver_options, &full)
+          .IsSolutionUsable());
   const ModelEvaluation full_evaluation = EvaluateModel(full, ground_truth);
 
   Reconstruction reduced = Perturbed(ground_truth);
@@ -219,6 +212,53 @@ TEST(AdjustCamerasOnTracks, CamerasAsAccurateAsTheFullAdjustment) {
   full.UpdatePoint3DErrors();
   EXPECT_LT(reduced.ComputeMeanReprojectionError(),
             1.1 * full.ComputeMeanReprojectionError());
+}
+
+TEST(AdjustAllObservations, UndoesAPerturbationWithTheMappersGauge) {
+  const Reconstruction ground_truth = WellConditionedGroundTruth();
+  const BundleAdjustmentOptions ba_options = AdjustmentOptions();
+  Reconstruction model = Perturbed(ground_truth);
+  const double perturbed_error =
+      EvaluateModel(model, ground_truth).median_position_error;
+  const image_t first = model.RegImageIds()[0];
+  const image_t second = model.RegImageIds()[1];
+  const Rigid3d first_pose = model.Image(first).CamFromWorld();
+  const double second_x = model.Image(second).CamFromWorld().translation.x();
+
+  const ceres::Solver::Summary summary =
+      AdjustAllObservations(ba_options, ba_options.solver_options, &model);
+  ASSERT_TRUE(summary.IsSolutionUsable());
+  EXPECT_LT(summary.final_cost, 0.01 * summary.initial_cost);
+  size_t num_observations = 0;
+  for (const auto& point3D : model.Points3D()) {
+    num_observations += point3D.second.track.Length();
+  }
+  EXPECT_EQ(summary.num_residuals, 2 * static_cast<int>(num_observations));
+  EXPECT_LT(EvaluateModel(model, ground_truth).median_position_error,
+            0.1 * perturbed_error);
+  // The gauge: the first image's pose and one coordinate of the second's
+  // translation stay where they were.
+  // (The adjuster normalizes the quaternions.)
+  EXPECT_LT(model.Image(first).CamFromWorld().rotation.angularDistance(
+                first_pose.rotation),
+            1e-12);
+  EXPECT_EQ(model.Image(first).CamFromWorld().translation,
+            first_pose.translation);
+  EXPECT_EQ(model.Image(second).CamFromWorld().translation.x(), second_x);
+
+  // Nothing to adjust: no iteration, not usable.
+  Reconstruction single = model;
+  const std::vector<image_t> reg_image_ids = single.RegImageIds();
+  for (const image_t image_id : reg_image_ids) {
+    if (image_id != first) {
+      single.DeRegisterImage(image_id);
+    }
+  }
+  ASSERT_EQ(single.NumRegImages(), 1);
+  const ceres::Solver::Summary nothing =
+      AdjustAllObservations(ba_options, ba_options.solver_options, &single);
+  EXPECT_FALSE(nothing.IsSolutionUsable());
+  EXPECT_TRUE(nothing.iterations.empty());
 }
 
 TEST(RefinePointsWithFixedCameras, LeavesCamerasAndExcludedPointsAlone) {

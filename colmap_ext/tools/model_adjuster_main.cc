@@ -18,10 +18,10 @@
 // residuals) before and after, with all its digits, the RMS reprojection
 // error, iterations and how the solver stopped.
 
+#include "colmap_ext/sfm/reduced_bundle_adjustment.h"
 #include "colmap_ext/util/atomic_output.h"
 
 #include "colmap/controllers/option_manager.h"
-#include "colmap/estimators/bundle_adjustment.h"
 #include "colmap/scene/reconstruction.h"
 #include "colmap/util/misc.h"
 #include "colmap/util/threading.h"
@@ -69,26 +69,13 @@ int RunModelAdjuster(int argc, char** argv) {
 
   Reconstruction reconstruction;
   reconstruction.Read(input_path);
-  const std::vector<image_t>& reg_image_ids = reconstruction.RegImageIds();
-  if (reg_image_ids.size() < 2) {
+  if (reconstruction.NumRegImages() < 2) {
     LOG(ERROR) << "The model at " << input_path
                << " has fewer than two registered images";
     return EXIT_FAILURE;
   }
 
-  BundleAdjustmentOptions ba_options;
-  BundleAdjustmentConfig config;
-  for (const image_t image_id : reg_image_ids) {
-    config.AddImage(image_id);
-  }
-  config.SetConstantCamPose(reg_image_ids[0]);
-  config.SetConstantCamPositions(reg_image_ids[1], {0});
-  BundleAdjuster bundle_adjuster(ba_options, config);
-  const std::unique_ptr<ceres::LossFunction> loss_function(
-      ba_options.CreateLossFunction());
-  bundle_adjuster.SetUpProblem(&reconstruction, loss_function.get());
-  const std::shared_ptr<ceres::Problem> problem = bundle_adjuster.Problem();
-
+  const BundleAdjustmentOptions ba_options;
   ceres::Solver::Options solver_options = ba_options.solver_options;
   solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
   solver_options.num_threads = GetEffectiveNumThreads(-1);
@@ -97,8 +84,12 @@ int RunModelAdjuster(int argc, char** argv) {
   solver_options.initial_trust_region_radius = initial_trust_region_radius;
   Timer timer;
   timer.Start();
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, problem.get(), &summary);
+  const ceres::Solver::Summary summary =
+      AdjustAllObservations(ba_options, solver_options, &reconstruction);
+  if (summary.num_residuals <= 0) {
+    LOG(ERROR) << "The model at " << input_path << " has no observations";
+    return EXIT_FAILURE;
+  }
   reconstruction.Write(output_path);
 
   const double num_residuals = std::max(1, summary.num_residuals_reduced);
