@@ -29,6 +29,7 @@
 
 #include <cstdio>
 
+#include <boost/filesystem.hpp>
 #include <ceres/ceres.h>
 
 namespace colmap {
@@ -90,7 +91,16 @@ int RunModelAdjuster(int argc, char** argv) {
     LOG(ERROR) << "The model at " << input_path << " has no observations";
     return EXIT_FAILURE;
   }
-  reconstruction.Write(output_path);
+  // Written beside the output and renamed into place file by file, so that
+  // the model there (the input itself, if asked) is never half-written.
+  const std::string temporary = output_path + ".tmp-model_adjuster";
+  boost::filesystem::create_directories(temporary);
+  reconstruction.WriteBinary(temporary);
+  for (const char* name : {"cameras.bin", "images.bin", "points3D.bin"}) {
+    boost::filesystem::rename(JoinPaths(temporary, name),
+                              JoinPaths(output_path, name));
+  }
+  boost::filesystem::remove(temporary);
 
   const double num_residuals = std::max(1, summary.num_residuals_reduced);
   std::printf("num_residuals %d\n", summary.num_residuals_reduced);
