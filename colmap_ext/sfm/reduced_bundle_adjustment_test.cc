@@ -236,9 +236,9 @@ TEST(AdjustAllObservations, UndoesAPerturbationWithTheMappersGauge) {
   EXPECT_EQ(summary.num_residuals, 2 * static_cast<int>(num_observations));
   EXPECT_LT(EvaluateModel(model, ground_truth).median_position_error,
             0.1 * perturbed_error);
-  // The gauge: the first image's pose and one coordinate of the second's
-  // translation stay where they were.
-  // (The adjuster normalizes the quaternions.)
+  // The gauge: the first image's pose (its quaternion normalized by the
+  // adjuster) and one coordinate of the second's translation stay where they
+  // were.
   EXPECT_LT(model.Image(first).CamFromWorld().rotation.angularDistance(
                 first_pose.rotation),
             1e-12);

@@ -24,7 +24,6 @@
 #include "colmap/controllers/option_manager.h"
 #include "colmap/scene/reconstruction.h"
 #include "colmap/util/misc.h"
-#include "colmap/util/threading.h"
 #include "colmap/util/timer.h"
 
 #include <cstdio>
@@ -79,7 +78,6 @@ int RunModelAdjuster(int argc, char** argv) {
   const BundleAdjustmentOptions ba_options;
   ceres::Solver::Options solver_options = ba_options.solver_options;
   solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
-  solver_options.num_threads = GetEffectiveNumThreads(-1);
   solver_options.max_num_iterations = max_num_iterations;
   solver_options.function_tolerance = function_tolerance;
   solver_options.initial_trust_region_radius = initial_trust_region_radius;
