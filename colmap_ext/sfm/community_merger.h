@@ -158,17 +158,16 @@ struct MergedModelRefinementOptions {
 
   // Ceres' dense Schur solver for an adjustment of at most 1000 images
   // whose reduced camera matrix is dense: where at least this fraction of
-  // the pairs of images see a common point (CameraCovisibilityDensity), the
-  // sparse factorization fills in and has little left to skip, and the dense
-  // one runs on BLAS blocks (its matrix: 8 bytes per entry of a square of
-  // six rows per image, 90 MB for 560 images). Merge stage reruns on the
-  // same communities, the refinement's four adjustments dense / sparse: a
-  // generated dense scene of 560 images (density 26%) 42 s / 51 s back to
-  // back, the same model; South Building (41%) 4.3 s / 7.5 s (an earlier
-  // build's run), median camera error 0.01150 / 0.01156; a generated courtyard
-  // loop of 420 images (14%) on par per iteration; an open chain of 500
-  // (11%) 68 s / 36 s and 482 / 304 MB peak. Above 1: never.
-  double dense_solver_min_density = 0.2;
+  // the pairs of images see a common point (CameraCovisibilityDensity). Above
+  // 1 (the default): never. While the adjustments gave each pose two blocks
+  // (rotation, translation) it paid: a generated dense scene of 560 images
+  // (density 26%), the four adjustments 42 s dense against 51 s sparse.
+  // With a block per pose (reduced_bundle_adjustment.h) the sparse solver's
+  // per-cell work shrank fourfold and it overtook the dense one: merge stage
+  // reruns on the same communities, sparse / dense, the dense scene 52.8 /
+  // 59.6 s, South Building (41%) 11.0-12.4 / 11.5-12.2 s, an open chain of
+  // 500 images (11%) 14.1 / 14.6 s, the same models to the sixth digit.
+  double dense_solver_min_density = 2;
 
   // The bundle adjustments of step (3) adjust the cameras on a subset of
   // the tracks, selected per image over a grid (long, accurate tracks

@@ -261,6 +261,51 @@ TEST(AdjustAllObservations, UndoesAPerturbationWithTheMappersGauge) {
   EXPECT_TRUE(nothing.iterations.empty());
 }
 
+// The pose as one parameter block changes how Ceres solves, not what:
+// from the same start, COLMAP's bundle adjuster (with the mapper's gauge)
+// and AdjustAllObservations end at the same cost, poses and intrinsics.
+TEST(AdjustAllObservations, ConvergesWhereColmapsBundleAdjusterDoes) {
+  const Reconstruction ground_truth = WellConditionedGroundTruth();
+  BundleAdjustmentOptions ba_options = AdjustmentOptions();
+  ba_options.solver_options.function_tolerance = 1e-12;
+  ba_options.solver_options.gradient_tolerance = 1e-14;
+  ba_options.solver_options.parameter_tolerance = 1e-14;
+  ba_options.solver_options.max_num_iterations = 200;
+  const Reconstruction start = Perturbed(ground_truth);
+
+  Reconstruction colmap_model = start;
+  BundleAdjustmentConfig config;
+  for (const image_t image_id : colmap_model.RegImageIds()) {
+    config.AddImage(image_id);
+  }
+  config.SetConstantCamPose(colmap_model.RegImageIds()[0]);
+  config.SetConstantCamPositions(colmap_model.RegImageIds()[1], {0});
+  BundleAdjuster bundle_adjuster(ba_options, config);
+  ASSERT_TRUE(bundle_adjuster.Solve(&colmap_model));
+  const double colmap_cost = bundle_adjuster.Summary().final_cost;
+
+  Reconstruction model = start;
+  const ceres::Solver::Summary summary =
+      AdjustAllObservations(ba_options, ba_options.solver_options, &model);
+  ASSERT_TRUE(summary.IsSolutionUsable());
+  EXPECT_EQ(summary.num_residuals, bundle_adjuster.Summary().num_residuals);
+  EXPECT_NEAR(summary.final_cost, colmap_cost, 1e-9 * colmap_cost);
+  const double extent = EvaluateModel(ground_truth, ground_truth).extent;
+  for (const image_t image_id : model.RegImageIds()) {
+    const Rigid3d& ours = model.Image(image_id).CamFromWorld();
+    const Rigid3d& colmaps = colmap_model.Image(image_id).CamFromWorld();
+    EXPECT_LT(ours.rotation.angularDistance(colmaps.rotation), 1e-7);
+    EXPECT_LT((ours.translation - colmaps.translation).norm(), 1e-7 * extent);
+  }
+  for (const auto& camera : model.Cameras()) {
+    const std::vector<double>& colmaps =
+        colmap_model.Camera(camera.first).params;
+    for (size_t k = 0; k < colmaps.size(); ++k) {
+      EXPECT_NEAR(camera.second.params[k], colmaps[k], 1e-6 * colmaps[k]);
+    }
+  }
+}
+
 TEST(RefinePointsWithFixedCameras, LeavesCamerasAndExcludedPointsAlone) {
   const Reconstruction ground_truth = WellConditionedGroundTruth();
   Reconstruction model = Perturbed(ground_truth);
