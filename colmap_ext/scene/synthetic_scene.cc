@@ -1,7 +1,11 @@
 #include "colmap_ext/scene/synthetic_scene.h"
 
+#include "colmap_ext/scene/model_evaluation.h"
+
 #include "colmap/geometry/essential_matrix.h"
 #include "colmap/geometry/pose.h"
+#include "colmap/math/math.h"
+#include "colmap/math/random.h"
 #include "colmap/util/logging.h"
 #include "colmap/util/misc.h"
 
@@ -660,6 +664,37 @@ void WriteImageClusters(const SyntheticScene& scene, const std::string& path) {
   for (const image_t image_id : image_ids) {
     file << scene.ground_truth.Image(image_id).Name() << " "
          << scene.image_cluster.at(image_id) << "\n";
+  }
+}
+
+void PerturbReconstruction(const double max_rotation_deg,
+                           const double translation_fraction,
+                           const double focal_length_factor,
+                           const unsigned seed,
+                           Reconstruction* reconstruction) {
+  THROW_CHECK_NOTNULL(reconstruction);
+  SetPRNGSeed(seed);
+  auto random_vector = []() {
+    return Eigen::Vector3d(RandomUniformReal(-1.0, 1.0),
+                           RandomUniformReal(-1.0, 1.0),
+                           RandomUniformReal(-1.0, 1.0));
+  };
+  const double step = translation_fraction *
+                      EvaluateModel(*reconstruction, *reconstruction).extent;
+  for (const image_t image_id : reconstruction->RegImageIds()) {
+    Rigid3d& cam_from_world = reconstruction->Image(image_id).CamFromWorld();
+    const double angle =
+        DegToRad(RandomUniformReal(-max_rotation_deg, max_rotation_deg));
+    cam_from_world.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(
+                                  angle, random_vector().normalized())) *
+                              cam_from_world.rotation;
+    cam_from_world.translation += step * random_vector();
+  }
+  for (const point3D_t point3D_id : reconstruction->Point3DIds()) {
+    reconstruction->Point3D(point3D_id).xyz += step * random_vector();
+  }
+  for (const auto& camera : reconstruction->Cameras()) {
+    reconstruction->Camera(camera.first).params[0] *= focal_length_factor;
   }
 }
 

@@ -131,6 +131,18 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
                               SyntheticScene* scene,
                               Database* database);
 
+// A start for an adjustment to undo: every registered image of
+// `reconstruction` turned by up to `max_rotation_deg` about a random axis
+// and moved by up to `translation_fraction` of the extent of the camera
+// centres along each axis, every point moved as far, every camera's first
+// parameter (a focal length) scaled by `focal_length_factor`. The same seed
+// gives the same moves (COLMAP's random generator, seeded).
+void PerturbReconstruction(double max_rotation_deg,
+                           double translation_fraction,
+                           double focal_length_factor,
+                           unsigned seed,
+                           Reconstruction* reconstruction);
+
 // Writes "IMAGE_NAME CLUSTER" lines (cluster -1: walkway) to a text file.
 void WriteImageClusters(const SyntheticScene& scene, const std::string& path);
 

@@ -1,5 +1,6 @@
 #include "colmap_ext/sfm/community_reconstruction.h"
 
+#include "colmap_ext/sfm/pose_block_bundle_adjustment.h"
 #include "colmap_ext/util/process_memory.h"
 
 #include "colmap/math/random.h"
@@ -51,8 +52,10 @@ CommunityReconstruction ReconstructCommunity(
   ReleaseFreedMemory();
 
   // As IncrementalMapperController::Run: where no initial pair is found,
-  // relax the constraints.
+  // relax the constraints. The global adjustments solve COLMAP's problem
+  // with a parameter block per pose (pose_block_bundle_adjustment.h).
   IncrementalMapper::Options init_options = options->Mapper();
+  init_options.global_bundle_adjuster = AdjustGlobalBundleWithPoseBlocks;
   mapper.Reconstruct(init_options);
   constexpr int kNumInitRelaxations = 2;
   for (int i = 0;

@@ -1,5 +1,7 @@
 #include "colmap_ext/sfm/reduced_bundle_adjustment.h"
 
+#include "colmap_ext/sfm/pose_block_bundle_adjustment.h"
+
 #include "colmap/estimators/cost_functions.h"
 #include "colmap/util/logging.h"
 #include "colmap/util/misc.h"
@@ -7,7 +9,6 @@
 #include "colmap/util/timer.h"
 
 #include <algorithm>
-#include <array>
 #include <limits>
 #include <string>
 #include <unordered_map>
@@ -42,169 +43,18 @@ TrackRank RankOf(const TrackSelectionOptions& options,
       point3D_id};
 }
 
-// COLMAP's reprojection error (ReprojErrorCostFunction) with an image's
-// pose as one parameter block of 7 numbers: its rotation's quaternion (x, y,
-// z, w), then its translation. COLMAP's bundle adjuster gives the rotation
-// and the translation a block each, so the Schur complement over the
-// cameras holds four cells per pair of images that see a common point, and
-// Ceres locks a mutex for every cell a point updates: on a dense scene (560
-// images, tracks of 33 observations) its elimination took more than half of
-// each solve. One block per pose makes a quarter of the cells; the same
-// steps took 7.2 s instead of 10.2 s there (same cost to ten digits).
-template <typename CameraModel>
-class PoseBlockReprojErrorCostFunction {
- public:
-  explicit PoseBlockReprojErrorCostFunction(const Eigen::Vector2d& point2D)
-      : error_(point2D) {}
-
-  static ceres::CostFunction* Create(const Eigen::Vector2d& point2D) {
-    return new ceres::AutoDiffCostFunction<
-        PoseBlockReprojErrorCostFunction<CameraModel>,
-        2,
-        7,
-        3,
-        CameraModel::num_params>(new PoseBlockReprojErrorCostFunction(point2D));
+// COLMAP's mapper's global adjustment: all registered images, the gauge
+// held by the first image's pose and the first coordinate of the second's
+// position.
+BundleAdjustmentConfig MappersGauge(const Reconstruction& reconstruction) {
+  const std::vector<image_t>& reg_image_ids = reconstruction.RegImageIds();
+  BundleAdjustmentConfig config;
+  for (const image_t image_id : reg_image_ids) {
+    config.AddImage(image_id);
   }
-
-  template <typename T>
-  bool operator()(const T* const cam_from_world,
-                  const T* const point3D,
-                  const T* const camera_params,
-                  T* residuals) const {
-    return error_(
-        cam_from_world, cam_from_world + 4, point3D, camera_params, residuals);
-  }
-
- private:
-  const ReprojErrorCostFunction<CameraModel> error_;
-};
-
-// Holds the intrinsics of `camera` that `ba_options` does not refine.
-void ParameterizeCamera(const BundleAdjustmentOptions& ba_options,
-                        Camera* camera,
-                        ceres::Problem* problem) {
-  std::vector<int> constant_params;
-  auto hold = [&constant_params](const span<const size_t> idxs) {
-    constant_params.insert(constant_params.end(), idxs.begin(), idxs.end());
-  };
-  if (!ba_options.refine_focal_length) hold(camera->FocalLengthIdxs());
-  if (!ba_options.refine_principal_point) hold(camera->PrincipalPointIdxs());
-  if (!ba_options.refine_extra_params) hold(camera->ExtraParamsIdxs());
-  if (constant_params.size() == camera->params.size()) {
-    problem->SetParameterBlockConstant(camera->params.data());
-  } else if (!constant_params.empty()) {
-    SetSubsetManifold(static_cast<int>(camera->params.size()),
-                      constant_params,
-                      problem,
-                      camera->params.data());
-  }
-}
-
-// Adjusts the poses of the registered images observing the given points
-// (all points when `point3D_ids` is null), the intrinsics of their cameras
-// and those points, on those points' observations; the gauge held as
-// COLMAP's mapper holds it (the first registered image's pose, the first
-// coordinate of the second's position).
-ceres::Solver::Summary AdjustPosesOnObservations(
-    const BundleAdjustmentOptions& ba_options,
-    ceres::Solver::Options solver_options,
-    const std::unordered_set<point3D_t>* point3D_ids,
-    Reconstruction* reconstruction) {
-  THROW_CHECK_NOTNULL(reconstruction);
-  THROW_CHECK(ba_options.Check());
-  solver_options.num_threads =
-      GetEffectiveNumThreads(solver_options.num_threads);
-  std::string solver_error;
-  THROW_CHECK(solver_options.IsValid(&solver_error)) << solver_error;
-  ceres::Solver::Summary summary;
-  const std::vector<image_t>& reg_image_ids = reconstruction->RegImageIds();
-  if (reg_image_ids.size() < 2) {
-    summary.message = "fewer than two registered images";
-    return summary;
-  }
-
-  ceres::Problem::Options problem_options;
-  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  const std::unique_ptr<ceres::LossFunction> loss_function(
-      ba_options.CreateLossFunction());
-  // The poses are solved in blocks of their own and copied back after.
-  std::unordered_map<image_t, std::array<double, 7>> poses;
-  std::unordered_set<camera_t> camera_ids;
-  auto add_point = [&](Point3D& point3D) {
-    for (const TrackElement& track_el : point3D.track.Elements()) {
-      Image& image = reconstruction->Image(track_el.image_id);
-      Camera& camera = reconstruction->Camera(image.CameraId());
-      camera_ids.insert(image.CameraId());
-      const Eigen::Vector2d& xy = image.Point2D(track_el.point2D_idx).xy;
-      if (!ba_options.refine_extrinsics ||
-          track_el.image_id == reg_image_ids[0]) {
-        problem.AddResidualBlock(
-            CameraCostFunction<ReprojErrorConstantPoseCostFunction>(
-                camera.model_id, image.CamFromWorld(), xy),
-            loss_function.get(),
-            point3D.xyz.data(),
-            camera.params.data());
-        continue;
-      }
-      auto pose = poses.find(track_el.image_id);
-      if (pose == poses.end()) {
-        Rigid3d& cam_from_world = image.CamFromWorld();
-        // The cost function assumes unit quaternions.
-        cam_from_world.rotation.normalize();
-        pose = poses.emplace(track_el.image_id, std::array<double, 7>()).first;
-        std::copy_n(
-            cam_from_world.rotation.coeffs().data(), 4, pose->second.data());
-        std::copy_n(
-            cam_from_world.translation.data(), 3, pose->second.data() + 4);
-      }
-      problem.AddResidualBlock(
-          CameraCostFunction<PoseBlockReprojErrorCostFunction>(camera.model_id,
-                                                               xy),
-          loss_function.get(),
-          pose->second.data(),
-          point3D.xyz.data(),
-          camera.params.data());
-    }
-  };
-  const std::unordered_set<point3D_t> all_point3D_ids =
-      point3D_ids == nullptr ? reconstruction->Point3DIds()
-                             : std::unordered_set<point3D_t>();
-  for (const point3D_t point3D_id :
-       point3D_ids == nullptr ? all_point3D_ids : *point3D_ids) {
-    add_point(reconstruction->Point3D(point3D_id));
-  }
-  if (problem.NumResiduals() == 0) {
-    summary.message = "no observations";
-    return summary;
-  }
-
-  for (auto& pose : poses) {
-    if (pose.first == reg_image_ids[1]) {
-      problem.SetManifold(
-          pose.second.data(),
-          new ceres::ProductManifold<ceres::EigenQuaternionManifold,
-                                     ceres::SubsetManifold>(
-              ceres::EigenQuaternionManifold(), ceres::SubsetManifold(3, {0})));
-    } else {
-      problem.SetManifold(
-          pose.second.data(),
-          new ceres::ProductManifold<ceres::EigenQuaternionManifold,
-                                     ceres::EuclideanManifold<3>>());
-    }
-  }
-  for (const camera_t camera_id : camera_ids) {
-    ParameterizeCamera(
-        ba_options, &reconstruction->Camera(camera_id), &problem);
-  }
-
-  ceres::Solve(solver_options, &problem, &summary);
-  for (const auto& pose : poses) {
-    Rigid3d& cam_from_world = reconstruction->Image(pose.first).CamFromWorld();
-    std::copy_n(pose.second.data(), 4, cam_from_world.rotation.coeffs().data());
-    std::copy_n(pose.second.data() + 4, 3, cam_from_world.translation.data());
-  }
-  return summary;
+  config.SetConstantCamPose(reg_image_ids[0]);
+  config.SetConstantCamPositions(reg_image_ids[1], {0});
+  return config;
 }
 
 }  // namespace
@@ -309,10 +159,16 @@ ceres::Solver::Summary AdjustAllObservations(
     const BundleAdjustmentOptions& ba_options,
     ceres::Solver::Options solver_options,
     Reconstruction* reconstruction) {
-  return AdjustPosesOnObservations(ba_options,
-                                   std::move(solver_options),
-                                   /*point3D_ids=*/nullptr,
-                                   reconstruction);
+  THROW_CHECK_NOTNULL(reconstruction);
+  if (reconstruction->NumRegImages() < 2) {
+    ceres::Solver::Summary summary;
+    summary.message = "fewer than two registered images";
+    return summary;
+  }
+  PoseBlockBundleAdjuster bundle_adjuster(ba_options,
+                                          MappersGauge(*reconstruction));
+  bundle_adjuster.SetUpProblem(reconstruction);
+  return bundle_adjuster.Solve(std::move(solver_options), reconstruction);
 }
 
 bool AdjustCamerasOnTracks(const BundleAdjustmentOptions& ba_options,
@@ -325,8 +181,11 @@ bool AdjustCamerasOnTracks(const BundleAdjustmentOptions& ba_options,
   }
   Timer timer;
   timer.Start();
-  const ceres::Solver::Summary summary = AdjustPosesOnObservations(
-      ba_options, solver_options, &point3D_ids, reconstruction);
+  PoseBlockBundleAdjuster bundle_adjuster(ba_options,
+                                          MappersGauge(*reconstruction));
+  bundle_adjuster.SetUpProblem(reconstruction, &point3D_ids);
+  const ceres::Solver::Summary summary =
+      bundle_adjuster.Solve(solver_options, reconstruction);
   std::unordered_set<image_t> image_ids;
   for (const point3D_t point3D_id : point3D_ids) {
     for (const TrackElement& track_el :

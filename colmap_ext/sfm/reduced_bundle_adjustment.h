@@ -26,12 +26,8 @@
 // observations (the noise averages over fewer of them): the merge ends
 // with one such adjustment (community_merger.h).
 //
-// Both adjustments solve COLMAP's objective (its reprojection error, its
-// camera models and manifolds) with each image's pose as one parameter
-// block of 7 (quaternion, translation) where COLMAP's bundle adjuster has
-// two: Ceres' Schur elimination then updates a quarter of the cells, each
-// under a lock (stop 36: the merge stage 0.67-0.88x its time, the same
-// models).
+// Both adjustments solve COLMAP's objective with each pose as one parameter
+// block (pose_block_bundle_adjustment.h).
 
 #pragma once
 
