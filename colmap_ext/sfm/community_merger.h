@@ -162,7 +162,7 @@ struct MergedModelRefinementOptions {
   // 1 (the default): never. While the adjustments gave each pose two blocks
   // (rotation, translation) it paid: a generated dense scene of 560 images
   // (density 26%), the four adjustments 42 s dense against 51 s sparse.
-  // With a block per pose (reduced_bundle_adjustment.h) the sparse solver's
+  // With a block per pose (pose_block_bundle_adjustment.h) the sparse solver's
   // per-cell work shrank fourfold and it overtook the dense one: merge stage
   // reruns on the same communities, sparse / dense, the dense scene 52.8 /
   // 59.6 s, South Building (41%) 11.0-12.4 / 11.5-12.2 s, an open chain of

@@ -2,10 +2,8 @@
 
 #include "colmap_ext/sfm/pose_block_bundle_adjustment.h"
 
-#include "colmap/estimators/cost_functions.h"
 #include "colmap/util/logging.h"
 #include "colmap/util/misc.h"
-#include "colmap/util/threading.h"
 #include "colmap/util/timer.h"
 
 #include <algorithm>
@@ -13,8 +11,6 @@
 #include <string>
 #include <unordered_map>
 #include <vector>
-
-#include <ceres/product_manifold.h>
 
 namespace colmap {
 namespace {
