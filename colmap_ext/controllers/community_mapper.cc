@@ -16,13 +16,37 @@
 #include "colmap/util/timer.h"
 
 #include <algorithm>
+#include <chrono>
 #include <map>
 #include <set>
+#include <thread>
 
 namespace colmap {
 namespace {
 
 using Models = std::vector<std::shared_ptr<Reconstruction>>;
+
+// The database's fingerprint (community_workspace.h). Opening a database
+// runs COLMAP's schema statements, which hold SQLite's write lock for a
+// moment: tasks of a job array that start together found it locked
+// ("database is locked", one run of tests/slurm_test.sh in four under
+// load), so the opening is tried again a few times, as the communities'
+// loading is (community_reconstruction.cc).
+std::string ReadDatabaseFingerprint(const std::string& database_path) {
+  constexpr int kMaxNumAttempts = 5;
+  for (int attempt = 1;; ++attempt) {
+    try {
+      return DatabaseFingerprint(Database(database_path));
+    } catch (const std::exception& error) {
+      if (attempt == kMaxNumAttempts) {
+        throw;
+      }
+      LOG(WARNING) << "Opening " << database_path << " failed (" << error.what()
+                   << "); trying again in " << attempt << "s";
+      std::this_thread::sleep_for(std::chrono::seconds(attempt));
+    }
+  }
+}
 
 // The fraction of `image_names` whose camera no other image of the database
 // uses.
@@ -1048,8 +1072,7 @@ bool CommunityMapperController::LoadPlan() {
     return false;
   }
   if (database_fingerprint_.empty()) {
-    database_fingerprint_ =
-        DatabaseFingerprint(Database(options_.database_path));
+    database_fingerprint_ = ReadDatabaseFingerprint(options_.database_path);
   }
   const std::string mismatch =
       PlanMismatch(plan_, database_fingerprint_, options_.plan_options);
