@@ -30,6 +30,19 @@ Reconstruction PerturbedScene() {
   return model;
 }
 
+// The mapper's global adjustment of `model`: all registered images, the
+// first one's pose and the first coordinate of the second's position held.
+BundleAdjustmentConfig MappersGauge(const Reconstruction& model) {
+  const std::vector<image_t>& image_ids = model.RegImageIds();
+  BundleAdjustmentConfig config;
+  for (const image_t image_id : image_ids) {
+    config.AddImage(image_id);
+  }
+  config.SetConstantCamPose(image_ids[0]);
+  config.SetConstantCamPositions(image_ids[1], {0});
+  return config;
+}
+
 BundleAdjustmentOptions ConvergingOptions() {
   BundleAdjustmentOptions options;
   options.print_summary = false;
@@ -91,14 +104,7 @@ void ExpectSameSolutionAsColmap(const BundleAdjustmentOptions& options,
 
 TEST(PoseBlockBundleAdjuster, SolvesTheMappersGlobalAdjustmentAsColmapDoes) {
   const Reconstruction start = PerturbedScene();
-  const std::vector<image_t> image_ids = start.RegImageIds();
-  BundleAdjustmentConfig config;
-  for (const image_t image_id : image_ids) {
-    config.AddImage(image_id);
-  }
-  config.SetConstantCamPose(image_ids[0]);
-  config.SetConstantCamPositions(image_ids[1], {0});
-  ExpectSameSolutionAsColmap(ConvergingOptions(), config, start);
+  ExpectSameSolutionAsColmap(ConvergingOptions(), MappersGauge(start), start);
 }
 
 TEST(PoseBlockBundleAdjuster, HoldsWhatTheConfigurationAndOptionsHold) {
@@ -148,12 +154,7 @@ TEST(PoseBlockBundleAdjuster, HoldsWhatTheConfigurationAndOptionsHold) {
 TEST(PoseBlockBundleAdjuster, AdjustsOnTheGivenPointsOnly) {
   Reconstruction model = PerturbedScene();
   const Reconstruction start = model;
-  BundleAdjustmentConfig config;
-  for (const image_t image_id : model.RegImageIds()) {
-    config.AddImage(image_id);
-  }
-  config.SetConstantCamPose(model.RegImageIds()[0]);
-  config.SetConstantCamPositions(model.RegImageIds()[1], {0});
+  const BundleAdjustmentConfig config = MappersGauge(model);
   std::unordered_set<point3D_t> selected;
   size_t num_observations = 0;
   for (const auto& point3D : model.Points3D()) {
@@ -179,13 +180,7 @@ TEST(PoseBlockBundleAdjuster, AdjustsOnTheGivenPointsOnly) {
 
 TEST(AdjustGlobalBundleWithPoseBlocks, AdjustsOrSaysThereWasNothingToAdjust) {
   Reconstruction model = PerturbedScene();
-  const std::vector<image_t> image_ids = model.RegImageIds();
-  BundleAdjustmentConfig config;
-  for (const image_t image_id : image_ids) {
-    config.AddImage(image_id);
-  }
-  config.SetConstantCamPose(image_ids[0]);
-  config.SetConstantCamPositions(image_ids[1], {0});
+  const BundleAdjustmentConfig config = MappersGauge(model);
   model.UpdatePoint3DErrors();
   const double error_before = model.ComputeMeanReprojectionError();
   EXPECT_TRUE(
