@@ -186,6 +186,18 @@ ceres::Solver::Summary PoseBlockBundleAdjuster::Solve(
   return summary;
 }
 
+BundleAdjustmentConfig MappersGauge(const Reconstruction& reconstruction) {
+  const std::vector<image_t>& reg_image_ids = reconstruction.RegImageIds();
+  THROW_CHECK_GE(reg_image_ids.size(), 2);
+  BundleAdjustmentConfig config;
+  for (const image_t image_id : reg_image_ids) {
+    config.AddImage(image_id);
+  }
+  config.SetConstantCamPose(reg_image_ids[0]);
+  config.SetConstantCamPositions(reg_image_ids[1], {0});
+  return config;
+}
+
 bool AdjustGlobalBundleWithPoseBlocks(const BundleAdjustmentOptions& options,
                                       const BundleAdjustmentConfig& config,
                                       Reconstruction* reconstruction) {

@@ -63,6 +63,11 @@ class PoseBlockBundleAdjuster {
   std::unordered_map<image_t, std::array<double, 7>> poses_;
 };
 
+// The configuration of COLMAP's mapper's global adjustment: every registered
+// image of `reconstruction` (at least two), the gauge held by the first
+// one's pose and the first coordinate of the second's position.
+BundleAdjustmentConfig MappersGauge(const Reconstruction& reconstruction);
+
 // COLMAP's global bundle adjustment (IncrementalMapper::AdjustGlobalBundle)
 // solved by the adjuster above, the linear solver and threads chosen as
 // COLMAP's BundleAdjuster chooses them. Returns false where there is

@@ -30,19 +30,6 @@ Reconstruction PerturbedScene() {
   return model;
 }
 
-// The mapper's global adjustment of `model`: all registered images, the
-// first one's pose and the first coordinate of the second's position held.
-BundleAdjustmentConfig MappersGauge(const Reconstruction& model) {
-  const std::vector<image_t>& image_ids = model.RegImageIds();
-  BundleAdjustmentConfig config;
-  for (const image_t image_id : image_ids) {
-    config.AddImage(image_id);
-  }
-  config.SetConstantCamPose(image_ids[0]);
-  config.SetConstantCamPositions(image_ids[1], {0});
-  return config;
-}
-
 BundleAdjustmentOptions ConvergingOptions() {
   BundleAdjustmentOptions options;
   options.print_summary = false;

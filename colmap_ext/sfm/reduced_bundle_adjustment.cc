@@ -39,20 +39,6 @@ TrackRank RankOf(const TrackSelectionOptions& options,
       point3D_id};
 }
 
-// COLMAP's mapper's global adjustment: all registered images, the gauge
-// held by the first image's pose and the first coordinate of the second's
-// position.
-BundleAdjustmentConfig MappersGauge(const Reconstruction& reconstruction) {
-  const std::vector<image_t>& reg_image_ids = reconstruction.RegImageIds();
-  BundleAdjustmentConfig config;
-  for (const image_t image_id : reg_image_ids) {
-    config.AddImage(image_id);
-  }
-  config.SetConstantCamPose(reg_image_ids[0]);
-  config.SetConstantCamPositions(reg_image_ids[1], {0});
-  return config;
-}
-
 }  // namespace
 
 bool TrackSelectionOptions::Check() const {
