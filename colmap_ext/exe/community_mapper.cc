@@ -102,6 +102,12 @@ bool CheckCommandOptions(const CommunityMapperCommand& command) {
         "or more.",
         options.refinement.triangulation_filter_factor));
   }
+  if (!(options.refinement.final_filter_noise_multiple >= 0)) {
+    fail(StringPrintf(
+        "--CommunityMapper.final_filter_noise_multiple is %g: it must be 0 "
+        "(off) or more.",
+        options.refinement.final_filter_noise_multiple));
+  }
   if (!(options.refinement.max_refinement_change == -1 ||
         options.refinement.max_refinement_change >= 0)) {
     fail(StringPrintf(
@@ -768,6 +774,11 @@ void ParseCommand(int argc,
       "the merged model's points triangulated anew are filtered at this "
       "multiple of --Mapper.filter_max_reproj_error before its first "
       "bundle adjustment; 0: not before it");
+  add("final_filter_noise_multiple",
+      &mapper_options.refinement.final_filter_noise_multiple,
+      "before and after the merged model's last bundle adjustment, filter "
+      "observations beyond this multiple of its reprojection noise (where "
+      "below --Mapper.filter_max_reproj_error); 0: off");
   add("max_refinement_change",
       &mapper_options.refinement.max_refinement_change,
       "the merged model's rounds of bundle adjustment, filtering and track "

@@ -1,5 +1,6 @@
 #include "colmap_ext/sfm/community_merger.h"
 
+#include "colmap_ext/sfm/reprojection_noise.h"
 #include "colmap_ext/util/process_memory.h"
 
 #include "colmap/estimators/bundle_adjustment.h"
@@ -385,6 +386,7 @@ double CameraCovisibilityDensity(const Reconstruction& reconstruction) {
 bool MergedModelRefinementOptions::Check() const {
   CHECK_OPTION_GT(alignment_max_points_per_image, 0);
   CHECK_OPTION_GE(triangulation_filter_factor, 0);
+  CHECK_OPTION_GE(final_filter_noise_multiple, 0);
   CHECK_OPTION(max_refinement_change == -1 || max_refinement_change >= 0);
   CHECK_OPTION(track_selection.Check());
   CHECK_OPTION_GT(max_points_per_problem, 0);
@@ -693,6 +695,23 @@ MergedModelRefinementSummary RefineMergedModel(
   // 0.0165 (colmap mapper: 0.0164) for 4 seconds. It is over all
   // observations: what the tracks left out of a reduced adjustment tell
   // about every camera (its noise averages over all of them).
+  //
+  // Before it, the observations beyond `final_filter_noise_multiple` times
+  // the model's reprojection noise are filtered (reprojection_noise.h).
+  const double final_max_reproj_error =
+      NoiseRelativeReprojectionThreshold(*reconstruction,
+                                         options.final_filter_noise_multiple,
+                                         incremental.filter_max_reproj_error);
+  if (final_max_reproj_error < incremental.filter_max_reproj_error) {
+    const size_t num_filtered_noise = observation_manager->FilterAllPoints3D(
+        final_max_reproj_error, incremental.filter_min_tri_angle);
+    LOG(INFO) << StringPrintf(
+        "Filtered %d observations above %.2f px (%g times the reprojection "
+        "noise) before the last adjustment",
+        static_cast<int>(num_filtered_noise),
+        final_max_reproj_error,
+        options.final_filter_noise_multiple);
+  }
   MergedModelRefinementOptions full_options = options;
   full_options.reduced_adjustment = false;
   AdjustGlobalBundle(ba_options,
@@ -704,7 +723,7 @@ MergedModelRefinementSummary RefineMergedModel(
   // camera, are filtered: a two-view point behind a camera gave a generated
   // chain's model a mean reprojection error of 5e149 pixels.
   const size_t num_filtered_last = observation_manager->FilterAllPoints3D(
-      incremental.filter_max_reproj_error, incremental.filter_min_tri_angle);
+      final_max_reproj_error, incremental.filter_min_tri_angle);
   LOG(INFO) << StringPrintf(
       "Filtered %d observations after the last adjustment",
       static_cast<int>(num_filtered_last));

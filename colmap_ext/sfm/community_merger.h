@@ -120,6 +120,12 @@ struct MergedModelRefinementOptions {
   // start leaves it: every variant ends at the same cost).
   double triangulation_filter_factor = 1.0;
 
+  // Before the last adjustment (after step (3)) and after it, observations
+  // whose reprojection error exceeds this multiple of the model's
+  // reprojection noise (reprojection_noise.h) are filtered, where that is
+  // below --Mapper.filter_max_reproj_error; 0: that fixed threshold alone.
+  double final_filter_noise_multiple = 0;
+
   // Step (3) stops once fewer than this fraction of the observations
   // changed in a round; -1: --Mapper.ba_global_max_refinement_change
   // (0.0005). The last adjustment after the rounds takes the last changes
