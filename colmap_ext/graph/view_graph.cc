@@ -83,7 +83,12 @@ ViewGraph ViewGraph::Read(const Database& database, const int min_num_matches) {
   for (const Image& image : database.ReadAllImages()) {
     image_names.emplace(image.ImageId(), image.Name());
   }
-  return Create(image_pairs, num_inliers, min_num_matches, image_names);
+  ViewGraph view_graph =
+      Create(image_pairs, num_inliers, min_num_matches, image_names);
+  // The pairs read are those with inliers; the database counts all.
+  view_graph.num_failed_pairs_ =
+      database.NumVerifiedImagePairs() - image_pairs.size();
+  return view_graph;
 }
 
 ViewGraph ViewGraph::Create(

@@ -83,6 +83,13 @@ class ViewGraph {
   const std::vector<std::string>& ImageNames() const { return image_names_; }
   const std::vector<Edge>& Edges() const { return edges_; }
 
+  // Image pairs the matcher compared and found no inlier in (COLMAP's
+  // matchers write an empty two-view geometry for each): where there are
+  // any, a pair without a two-view geometry was never compared (sequential
+  // or vocabulary tree matching); where there are none (a database that
+  // stores verified pairs only), that cannot be told.
+  size_t NumFailedPairs() const { return num_failed_pairs_; }
+
   // The graph with the requested edge weights.
   WeightedGraph ToWeightedGraph(ViewGraphEdgeWeight weight) const;
 
@@ -90,6 +97,7 @@ class ViewGraph {
   std::vector<image_t> image_ids_;
   std::vector<std::string> image_names_;
   std::vector<Edge> edges_;
+  size_t num_failed_pairs_ = 0;
 };
 
 }  // namespace colmap

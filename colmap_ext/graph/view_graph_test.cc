@@ -88,6 +88,13 @@ TEST(ViewGraph, ReadFromDatabase) {
   EXPECT_EQ(graph.ImageNames()[0], "image0.png");
   EXPECT_EQ(graph.ImageNames()[1], "image1.png");
   EXPECT_EQ(graph.Edges()[0].num_inliers, 40);
+  // Images 2 and 3 were compared and had no inlier.
+  EXPECT_EQ(graph.NumFailedPairs(), 1);
+  write_pair(0, 3, 0);
+  EXPECT_EQ(ViewGraph::Read(database, 15).NumFailedPairs(), 2);
+  EXPECT_EQ(ViewGraph::Create({{image_ids[0], image_ids[1]}}, {40}, 15)
+                .NumFailedPairs(),
+            0);
 
   const ViewGraph loose = ViewGraph::Read(database, /*min_num_matches=*/5);
   EXPECT_EQ(loose.NumVertices(), 3);

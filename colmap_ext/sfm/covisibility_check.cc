@@ -144,12 +144,21 @@ double VerifiedPairDistanceQuantile(
   return distances[k];
 }
 
+// Whether the matcher compared the two images (every pair, without
+// `is_compared_pair`).
+bool IsCompared(const std::function<bool(image_t, image_t)>& is_compared_pair,
+                const ImageView& view1,
+                const ImageView& view2) {
+  return !is_compared_pair || is_compared_pair(view1.image_id, view2.image_id);
+}
+
 // Predicted co-visible and verified pairs among the near pairs of `views`,
 // at most `max_num_pairs` of them (evenly chosen).
 void CountInternalPairs(
     const std::vector<ImageView>& views,
     const double max_distance,
     const std::function<bool(image_t, image_t)>& is_verified_pair,
+    const std::function<bool(image_t, image_t)>& is_compared_pair,
     const CovisibilityCheckOptions& options,
     int* num_predicted,
     int* num_verified) {
@@ -166,7 +175,8 @@ void CountInternalPairs(
   for (size_t k = 0; k < near_pairs.size(); k += step) {
     const ImageView& view1 = views[near_pairs[k].first];
     const ImageView& view2 = views[near_pairs[k].second];
-    if (PredictedCovisible(view1, view2, options)) {
+    if (IsCompared(is_compared_pair, view1, view2) &&
+        PredictedCovisible(view1, view2, options)) {
       ++*num_predicted;
       *num_verified += is_verified_pair(view1.image_id, view2.image_id);
     }
@@ -207,6 +217,7 @@ CovisibilityCheck CheckCovisibility(
     const Reconstruction& reconstruction2,
     const Sim3d& second_from_first,
     const std::function<bool(image_t, image_t)>& is_verified_pair,
+    const std::function<bool(image_t, image_t)>& is_compared_pair,
     const CovisibilityCheckOptions& options) {
   THROW_CHECK(options.Check());
   CovisibilityCheck check;
@@ -229,12 +240,14 @@ CovisibilityCheck CheckCovisibility(
   CountInternalPairs(views1,
                      max_distance,
                      is_verified_pair,
+                     is_compared_pair,
                      options,
                      &check.num_predicted_internal_pairs,
                      &check.num_verified_internal_pairs);
   CountInternalPairs(views2,
                      max_distance,
                      is_verified_pair,
+                     is_compared_pair,
                      options,
                      &check.num_predicted_internal_pairs,
                      &check.num_verified_internal_pairs);
@@ -250,7 +263,8 @@ CovisibilityCheck CheckCovisibility(
            reconstruction1.IsImageRegistered(view2.image_id))) {
         continue;
       }
-      if (PredictedCovisible(view1, view2, options)) {
+      if (IsCompared(is_compared_pair, view1, view2) &&
+          PredictedCovisible(view1, view2, options)) {
         ++check.num_predicted_cross_pairs;
         check.num_verified_cross_pairs +=
             is_verified_pair(view1.image_id, view2.image_id);

@@ -64,13 +64,29 @@ class CheckCovisibilityTest : public ::testing::Test {
                Database::ImagePairToPairId(image_id1, image_id2)) > 0;
   }
 
-  CovisibilityCheck Check(const Sim3d& second_from_first) const {
+  // `is_compared`: the pairs the matcher compared (all, if empty).
+  CovisibilityCheck Check(
+      const Sim3d& second_from_first,
+      const std::function<bool(image_t, image_t)>& is_compared = {}) const {
     return CheckCovisibility(
         model1_,
         model2_,
         second_from_first,
         [this](image_t a, image_t b) { return IsVerified(a, b); },
+        is_compared,
         CovisibilityCheckOptions());
+  }
+
+  // Whether the two images are in one model (then compared, as by a
+  // matcher that compared each community's images among themselves).
+  bool InOneModel(const image_t image_id1, const image_t image_id2) const {
+    for (const Reconstruction* model : {&model1_, &model2_}) {
+      if (model->IsImageRegistered(image_id1) &&
+          model->IsImageRegistered(image_id2)) {
+        return true;
+      }
+    }
+    return false;
   }
 
   SyntheticScene scene_;
@@ -109,6 +125,32 @@ TEST_F(CheckCovisibilityTest, StackedLandmarksContradictTheMatches) {
   EXPECT_FALSE(check.consistent);
   EXPECT_GE(check.num_predicted_cross_pairs, 50);
   EXPECT_LT(check.CrossRate(), 0.1 * check.InternalRate());
+}
+
+TEST_F(CheckCovisibilityTest, PairsNeverComparedSayNothing) {
+  // The matcher compared the images within each model and, across, only the
+  // pairs it verified (as sequential matching compares the images near in
+  // the sequence: the pairs it never compared are no evidence of a wrong
+  // alignment).
+  const auto compared = [this](image_t a, image_t b) {
+    return InOneModel(a, b) || IsVerified(a, b);
+  };
+  Sim3d stacked;
+  stacked.translation = landmark_offset_;
+  const CovisibilityCheck check = Check(
+      Inverse(world_from_model2_) * stacked * world_from_model1_, compared);
+  EXPECT_TRUE(check.consistent);
+  EXPECT_EQ(check.num_predicted_cross_pairs, check.num_verified_cross_pairs);
+  // The true alignment: as with every pair compared.
+  const CovisibilityCheck truth =
+      Check(Inverse(world_from_model2_) * world_from_model1_, compared);
+  EXPECT_TRUE(truth.consistent);
+  EXPECT_GT(truth.num_predicted_internal_pairs, 100);
+  // Every pair compared across, the stacked alignment is still refused.
+  const auto all_but_one = [](image_t a, image_t b) { return a != b; };
+  EXPECT_FALSE(Check(Inverse(world_from_model2_) * stacked * world_from_model1_,
+                     all_but_one)
+                   .consistent);
 }
 
 TEST_F(CheckCovisibilityTest, ModelsFarApartSayNothing) {
