@@ -34,6 +34,12 @@ Scenes (default: small medium):
     sbF_S                  a fraction F% of the photographs kept, chosen
                            with seed S, e.g. sb60_2; the group `sb_subsets`
                            runs ten of them (50-75%)
+  South Building as a real open sequence (the cached database with the
+  pairs of images more than W apart in the order of their names deleted,
+  matches and two-view geometries: what `colmap sequential_matcher
+  --SequentialMatching.overlap W` without loop detection compares):
+    sbseqW                 e.g. sbseq10; the group `sb_sequences` runs
+                           sbseq5, sbseq10 and sbseq20
   A generated scene with `_sS` appended (e.g. chain_s7) is the same kind of
   scene drawn with seed S: another layout and other noise, to tell a
   method's systematic error from one draw's luck.
@@ -127,6 +133,8 @@ SUBSETS = {f"sb{round(100 * fraction)}_{seed}": (fraction, seed)
                                   (0.6, 6), (0.6, 7), (0.6, 8), (0.7, 9),
                                   (0.7, 10), (0.75, 3)]}
 SUBSET_PATTERN = re.compile(r"^sb(\d+)_(\d+)$")
+# South Building as a sequence: sbseqW (see the docstring).
+SEQUENCE_PATTERN = re.compile(r"^sbseq(\d+)$")
 # A generated scene drawn with another seed: NAME_sSEED.
 SEED_PATTERN = re.compile(r"^([a-z_]+)_s(\d+)$")
 
@@ -148,6 +156,7 @@ GROUPS = {
     "issue11": ["courtyard", "chain", "dense", "castle", "herzjesu",
                 "southbuilding"],
     "sb_subsets": list(SUBSETS),
+    "sb_sequences": ["sbseq5", "sbseq10", "sbseq20"],
 }
 
 METHODS = ["mapper", "community", "hierarchical", "hier_fair"]
@@ -370,8 +379,43 @@ def prepare_subset_scene(name, out_dir):
     return (subset, images, ground_truth, len(rows) - len(dropped), knobs)
 
 
+def prepare_sequence_scene(name, out_dir):
+    """South Building's cached database with only the pairs of images at
+    most W apart in the order of their names (as sequential matching without
+    loop detection compares them); returns what generate_scene returns."""
+    window = int(SEQUENCE_PATTERN.match(name).group(1))
+    database, images, ground_truth, num_images, knobs = prepare_real_scene(
+        "southbuilding", out_dir)
+    cache = os.path.join(out_dir, "cache", name)
+    sequence = os.path.join(cache, "database.db")
+    shutil.rmtree(cache, ignore_errors=True)
+    os.makedirs(cache)
+    shutil.copy(database, sequence)
+    connection = sqlite3.connect(sequence)
+    rank = {image_id: k for k, (image_id, _) in enumerate(connection.execute(
+        "SELECT image_id, name FROM images ORDER BY name"))}
+    max_image_id = 2147483647  # COLMAP's pair id: id1 * this + id2.
+    for table in ("matches", "two_view_geometries"):
+        pair_ids = [pair_id for (pair_id,) in
+                    connection.execute(f"SELECT pair_id FROM {table}")]
+        connection.executemany(
+            f"DELETE FROM {table} WHERE pair_id = ?",
+            [(pair_id,) for pair_id in pair_ids
+             if abs(rank[pair_id // max_image_id] -
+                    rank[pair_id % max_image_id]) > window])
+    connection.commit()
+    connection.close()
+    knobs = dict(knobs, matcher=f"exhaustive (CPU), then only the pairs at "
+                 f"most {window} apart in name order kept")
+    log(f"   {name}: pairs of images at most {window} apart")
+    return (sequence, images, ground_truth, num_images, knobs)
+
+
 def run_scene(name, out_dir, threads, methods):
-    if SUBSET_PATTERN.match(name):
+    if SEQUENCE_PATTERN.match(name):
+        database, images, ground_truth, num_images, knobs = \
+            prepare_sequence_scene(name, out_dir)
+    elif SUBSET_PATTERN.match(name):
         database, images, ground_truth, num_images, knobs = \
             prepare_subset_scene(name, out_dir)
     elif name in REAL:
@@ -694,9 +738,11 @@ def main():
                   (arguments.scenes or default_scenes)):
         for member in GROUPS.get(scene, [scene]):
             if (generated_knobs(member) is None and member not in REAL and
-                    not SUBSET_PATTERN.match(member)):
+                    not SUBSET_PATTERN.match(member) and
+                    not SEQUENCE_PATTERN.match(member)):
                 parser.error(f"unknown scene {member}")
-            photos = "southbuilding" if SUBSET_PATTERN.match(member) \
+            photos = "southbuilding" if (SUBSET_PATTERN.match(member) or
+                                         SEQUENCE_PATTERN.match(member)) \
                 else member
             if photos in REAL and not os.path.isdir(
                     os.path.join(SHARED_DATA, REAL[photos]["path"])):
