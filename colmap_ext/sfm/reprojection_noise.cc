@@ -44,8 +44,10 @@ double EstimateReprojectionNoise(const Reconstruction& reconstruction,
 
 double NoiseRelativeReprojectionThreshold(const Reconstruction& reconstruction,
                                           const double noise_multiple,
+                                          const double min_reproj_error,
                                           const double max_reproj_error) {
   THROW_CHECK_GE(noise_multiple, 0);
+  THROW_CHECK_GE(min_reproj_error, 0);
   THROW_CHECK_GT(max_reproj_error, 0);
   if (noise_multiple == 0) {
     return max_reproj_error;
@@ -54,7 +56,8 @@ double NoiseRelativeReprojectionThreshold(const Reconstruction& reconstruction,
   if (sigma <= 0) {
     return max_reproj_error;
   }
-  return std::min(max_reproj_error, noise_multiple * sigma);
+  return std::min(max_reproj_error,
+                  std::max(min_reproj_error, noise_multiple * sigma));
 }
 
 }  // namespace colmap

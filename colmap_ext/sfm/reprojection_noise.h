@@ -28,11 +28,16 @@ namespace colmap {
 double EstimateReprojectionNoise(const Reconstruction& reconstruction,
                                  size_t max_num_observations = 1000000);
 
-// min(max_reproj_error, noise_multiple * sigma), the threshold at which to
-// filter `reconstruction`'s observations; `max_reproj_error` alone for a
-// noise_multiple of 0 or a model without observations.
+// noise_multiple * sigma, bounded to [min_reproj_error, max_reproj_error]:
+// the threshold at which to filter `reconstruction`'s observations;
+// `max_reproj_error` alone for a noise_multiple of 0 or a model without
+// observations. The lower bound keeps a model whose residuals are nearly
+// zero (noise-free generated data, or points of two observations each,
+// which absorb most of their noise) from losing its observations to a
+// threshold of nothing.
 double NoiseRelativeReprojectionThreshold(const Reconstruction& reconstruction,
                                           double noise_multiple,
+                                          double min_reproj_error,
                                           double max_reproj_error);
 
 }  // namespace colmap

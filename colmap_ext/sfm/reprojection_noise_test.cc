@@ -66,19 +66,23 @@ TEST(EstimateReprojectionNoise, IgnoresOutliers) {
 TEST(EstimateReprojectionNoise, IsZeroWithoutObservations) {
   Reconstruction model;
   EXPECT_EQ(EstimateReprojectionNoise(model), 0);
-  EXPECT_EQ(NoiseRelativeReprojectionThreshold(model, 4, 4), 4);
+  EXPECT_EQ(NoiseRelativeReprojectionThreshold(model, 4, 1, 4), 4);
 }
 
 TEST(NoiseRelativeReprojectionThreshold, IsBoundedByTheFixedThreshold) {
   const Reconstruction model = NoisyScene(0.25);
   const double sigma = EstimateReprojectionNoise(model);
-  EXPECT_DOUBLE_EQ(NoiseRelativeReprojectionThreshold(model, 6, 4), 6 * sigma);
+  EXPECT_DOUBLE_EQ(NoiseRelativeReprojectionThreshold(model, 6, 0.5, 4),
+                   6 * sigma);
   // A noisier model, or a small fixed threshold: the fixed one.
-  EXPECT_EQ(NoiseRelativeReprojectionThreshold(model, 6, 1), 1);
-  EXPECT_EQ(NoiseRelativeReprojectionThreshold(model, 0, 4), 4);
+  EXPECT_EQ(NoiseRelativeReprojectionThreshold(model, 6, 0.5, 1), 1);
+  EXPECT_EQ(NoiseRelativeReprojectionThreshold(model, 0, 0.5, 4), 4);
+  // A model with hardly any noise: the lower bound.
+  EXPECT_EQ(NoiseRelativeReprojectionThreshold(NoisyScene(1e-6), 6, 0.5, 4),
+            0.5);
   // At six standard deviations no inlier is beyond it (probability 1.5e-8
   // each); every observation moved 3 px is.
-  const double threshold = NoiseRelativeReprojectionThreshold(model, 6, 4);
+  const double threshold = NoiseRelativeReprojectionThreshold(model, 6, 0.5, 4);
   for (const auto& point3D : model.Points3D()) {
     for (const TrackElement& track_el : point3D.second.track.Elements()) {
       EXPECT_LT(ReprojectionError(model, point3D.second, track_el), threshold);
