@@ -341,24 +341,23 @@ def prepare_real_scene(name, out_dir):
             knobs)
 
 
-def prepare_subset_scene(name, out_dir):
-    """South Building's cached database with the images of a random subset
-    only (their keypoints, matches and verified pairs; the others deleted);
-    returns what generate_scene returns."""
-    match = SUBSET_PATTERN.match(name)
-    fraction, seed = int(match.group(1)) / 100, int(match.group(2))
-    database, images, ground_truth, _, knobs = prepare_real_scene(
+def copy_southbuilding_database(name, out_dir):
+    """South Building's cached database copied to OUT/cache/NAME; returns
+    the copy's path, then what prepare_real_scene returns after the
+    database."""
+    database, images, ground_truth, num_images, knobs = prepare_real_scene(
         "southbuilding", out_dir)
     cache = os.path.join(out_dir, "cache", name)
-    subset = os.path.join(cache, "database.db")
+    copy = os.path.join(cache, "database.db")
     shutil.rmtree(cache, ignore_errors=True)
     os.makedirs(cache)
-    shutil.copy(database, subset)
-    connection = sqlite3.connect(subset)
-    rows = connection.execute(
-        "SELECT image_id, name FROM images ORDER BY name").fetchall()
-    rng = random.Random(seed)
-    dropped = {image_id for image_id, _ in rows if rng.random() > fraction}
+    shutil.copy(database, copy)
+    return copy, images, ground_truth, num_images, knobs
+
+
+def delete_pairs(connection, doomed):
+    """Deletes the matches and two-view geometries of every image pair
+    (image_id1, image_id2) for which doomed(image_id1, image_id2) holds."""
     max_image_id = 2147483647  # COLMAP's pair id: id1 * this + id2.
     for table in ("matches", "two_view_geometries"):
         pair_ids = [pair_id for (pair_id,) in
@@ -366,8 +365,24 @@ def prepare_subset_scene(name, out_dir):
         connection.executemany(
             f"DELETE FROM {table} WHERE pair_id = ?",
             [(pair_id,) for pair_id in pair_ids
-             if pair_id // max_image_id in dropped or
-             pair_id % max_image_id in dropped])
+             if doomed(pair_id // max_image_id, pair_id % max_image_id)])
+
+
+def prepare_subset_scene(name, out_dir):
+    """South Building's cached database with the images of a random subset
+    only (their keypoints, matches and verified pairs; the others deleted);
+    returns what generate_scene returns."""
+    match = SUBSET_PATTERN.match(name)
+    fraction, seed = int(match.group(1)) / 100, int(match.group(2))
+    subset, images, ground_truth, _, knobs = copy_southbuilding_database(
+        name, out_dir)
+    connection = sqlite3.connect(subset)
+    rows = connection.execute(
+        "SELECT image_id, name FROM images ORDER BY name").fetchall()
+    rng = random.Random(seed)
+    dropped = {image_id for image_id, _ in rows if rng.random() > fraction}
+    delete_pairs(connection, lambda image_id1, image_id2:
+                 image_id1 in dropped or image_id2 in dropped)
     for table in ("keypoints", "descriptors", "images"):
         connection.executemany(f"DELETE FROM {table} WHERE image_id = ?",
                                [(image_id,) for image_id in dropped])
@@ -384,25 +399,13 @@ def prepare_sequence_scene(name, out_dir):
     most W apart in the order of their names (as sequential matching without
     loop detection compares them); returns what generate_scene returns."""
     window = int(SEQUENCE_PATTERN.match(name).group(1))
-    database, images, ground_truth, num_images, knobs = prepare_real_scene(
-        "southbuilding", out_dir)
-    cache = os.path.join(out_dir, "cache", name)
-    sequence = os.path.join(cache, "database.db")
-    shutil.rmtree(cache, ignore_errors=True)
-    os.makedirs(cache)
-    shutil.copy(database, sequence)
+    sequence, images, ground_truth, num_images, knobs = \
+        copy_southbuilding_database(name, out_dir)
     connection = sqlite3.connect(sequence)
     rank = {image_id: k for k, (image_id, _) in enumerate(connection.execute(
         "SELECT image_id, name FROM images ORDER BY name"))}
-    max_image_id = 2147483647  # COLMAP's pair id: id1 * this + id2.
-    for table in ("matches", "two_view_geometries"):
-        pair_ids = [pair_id for (pair_id,) in
-                    connection.execute(f"SELECT pair_id FROM {table}")]
-        connection.executemany(
-            f"DELETE FROM {table} WHERE pair_id = ?",
-            [(pair_id,) for pair_id in pair_ids
-             if abs(rank[pair_id // max_image_id] -
-                    rank[pair_id % max_image_id]) > window])
+    delete_pairs(connection, lambda image_id1, image_id2:
+                 abs(rank[image_id1] - rank[image_id2]) > window)
     connection.commit()
     connection.close()
     knobs = dict(knobs, matcher=f"exhaustive (CPU), then only the pairs at "
