@@ -13,6 +13,7 @@
 
 #include <fstream>
 #include <iostream>
+#include <regex>
 #include <set>
 
 #include <boost/filesystem.hpp>
@@ -157,6 +158,24 @@ TEST_F(RealData, CastleP30SplitsAndMergesAsWellAsTheMapper) {
   EXPECT_LT(community.evaluation.median_position_error,
             0.02 * community.evaluation.extent);
   EXPECT_LT(community.evaluation.mean_reprojection_error, 1.0);
+
+  // The merged model's last adjustment ran without the observations beyond
+  // 8 times its reprojection noise (a pixel or two on these photographs,
+  // where the mapper keeps up to 4 px), and none is left beyond that.
+  std::smatch match;
+  ASSERT_TRUE(std::regex_search(
+      community.log,
+      match,
+      std::regex("Filtered [0-9]+ observations above ([0-9.]+) px")))
+      << community.log;
+  const double threshold = std::stod(match[1].str());
+  EXPECT_GE(threshold, 1.0);
+  EXPECT_LT(threshold, 3.0);
+  Reconstruction model;
+  model.Read(JoinPaths(community.output_path, "0"));
+  for (const auto& point3D : model.Points3D()) {
+    EXPECT_LE(point3D.second.error, threshold + 0.01);
+  }
 }
 
 // A facade and its side: no community structure with the defaults, so the
