@@ -55,7 +55,7 @@ PairOutcome EstimatePairSimilarity(
     const Database& database,
     std::mutex* database_mutex,
     const std::function<bool(image_t, image_t)>& is_verified_pair,
-    const bool records_compared_pairs,
+    const std::function<bool(image_t, image_t)>& is_compared_pair,
     const int community1,
     const int community2,
     const Reconstruction& model1,
@@ -99,18 +99,6 @@ PairOutcome EstimatePairSimilarity(
   const PointCorrespondences correspondences =
       FindPointCorrespondences(model1, model2, cross_pairs);
 
-  // A pair the matcher compared has a two-view geometry in the database,
-  // verified or not.
-  std::function<bool(image_t, image_t)> is_compared_pair;
-  if (records_compared_pairs) {
-    is_compared_pair = [&](const image_t image_id1, const image_t image_id2) {
-      if (is_verified_pair(image_id1, image_id2)) {
-        return true;
-      }
-      std::lock_guard<std::mutex> lock(*database_mutex);
-      return database.ExistsInlierMatches(image_id1, image_id2);
-    };
-  }
   CovisibilityCheck covisibility;
   std::set<std::pair<point3D_t, point3D_t>> rejected_inliers;
   std::string rejected;
@@ -238,11 +226,22 @@ CommunitySimilarities EstimateCommunitySimilarities(
   };
 
   // COLMAP's matchers record every pair they compare, those whose
-  // verification failed too. A database without such a pair (e.g. the
-  // generated scenes, which store the verified pairs only) cannot tell a
-  // pair never compared from one that failed: every pair counts as
-  // compared, as after exhaustive matching.
-  const bool records_compared_pairs = view_graph.NumFailedPairs() > 0;
+  // verification failed too: a pair the matcher compared has a two-view
+  // geometry in the database, verified or not. A database without a failed
+  // pair (e.g. the generated scenes, which store the verified pairs only)
+  // cannot tell a pair never compared from one that failed: every pair
+  // counts as compared, as after exhaustive matching.
+  std::mutex database_mutex;
+  std::function<bool(image_t, image_t)> is_compared_pair;
+  if (view_graph.NumFailedPairs() > 0) {
+    is_compared_pair = [&](const image_t image_id1, const image_t image_id2) {
+      if (is_verified_pair(image_id1, image_id2)) {
+        return true;
+      }
+      std::lock_guard<std::mutex> lock(database_mutex);
+      return database.ExistsInlierMatches(image_id1, image_id2);
+    };
+  }
 
   std::vector<const CrossEdges::value_type*> pairs;
   for (const auto& pair_and_edges : cross_edges) {
@@ -254,7 +253,6 @@ CommunitySimilarities EstimateCommunitySimilarities(
   }
   // The pairs run in parallel (on dense matching each holds tens of
   // thousands of correspondences and RANSAC takes seconds over them).
-  std::mutex database_mutex;
   std::vector<PairOutcome> outcomes(pairs.size());
   {
     ThreadPool thread_pool(
@@ -268,7 +266,7 @@ CommunitySimilarities EstimateCommunitySimilarities(
         outcomes[i] = EstimatePairSimilarity(database,
                                              &database_mutex,
                                              is_verified_pair,
-                                             records_compared_pairs,
+                                             is_compared_pair,
                                              community1,
                                              community2,
                                              *models[community1],
