@@ -379,6 +379,18 @@ int SimilarityAveragingResult::NumParts() const {
                                      part_of_community.end());
 }
 
+namespace {
+
+// See SimilarityAveragingOptions::min_num_contradicting_shared_images.
+bool IsEdgeInDoubt(const RelativeSimilarity& edge,
+                   const SimilarityAveragingOptions& options) {
+  return options.min_num_contradicting_shared_images > 0 &&
+         edge.num_shared_images - edge.num_agreeing_shared_images >=
+             options.min_num_contradicting_shared_images;
+}
+
+}  // namespace
+
 SimilarityAveragingResult AverageSimilarities(
     const std::vector<AveragedCommunity>& communities,
     const std::vector<RelativeSimilarity>& relative_similarities,
@@ -417,7 +429,8 @@ SimilarityAveragingResult AverageSimilarities(
     edge_weights[e] =
         std::min(community_weights[edge.community1],
                  community_weights[edge.community2]) *
-        std::min(1.0, edge.num_inliers / options.full_support_num_inliers);
+        std::min(1.0, edge.num_inliers / options.full_support_num_inliers) *
+        (IsEdgeInDoubt(edge, options) ? options.doubtful_weight : 1.0);
     max_weight = std::max(max_weight, edge_weights[e]);
   }
   for (double& weight : edge_weights) {
@@ -437,8 +450,7 @@ SimilarityAveragingResult AverageSimilarities(
     const int num_disagreeing =
         edge.num_shared_images - edge.num_agreeing_shared_images;
     result.edges[e].contradicted =
-        options.min_num_contradicting_shared_images > 0 &&
-        num_disagreeing >= options.min_num_contradicting_shared_images &&
+        IsEdgeInDoubt(edge, options) &&
         num_disagreeing >= edge.num_agreeing_shared_images;
     result.edges[e].kept = !result.excluded[edge.community1] &&
                            !result.excluded[edge.community2] &&

@@ -517,6 +517,48 @@ TEST(AverageSimilarities, DoubtfulCommunityNeedsItsSharedImagesOnABridge) {
   EXPECT_EQ(result.NumParts(), 1);
 }
 
+// South Building matched anew (stop 38): a cycle of four communities whose
+// wrong edge (between two communities that had each registered one image
+// of the other far off) placed 4 of its 6 shared images alike, and whose
+// lightest edges are the smallest community's, right and confirmed by all
+// their shared images.
+TEST(AverageSimilarities, EdgeInDoubtTakesItsCyclesDisagreement) {
+  int bent = -1;
+  Problem problem = MakeBentCycle({45, 41, 36, 29}, 41, 1, 2, &bent);
+  for (RelativeSimilarity& edge : problem.edges) {
+    edge.num_shared_images = 6;
+    edge.num_agreeing_shared_images = 6;
+    edge.num_inliers = 1000;
+  }
+  problem.edges[bent].num_agreeing_shared_images = 4;
+
+  const SimilarityAveragingResult result = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+  EXPECT_FALSE(result.edges[bent].contradicted);
+  EXPECT_FALSE(result.edges[bent].kept);
+  for (size_t e = 0; e < problem.edges.size(); ++e) {
+    if (static_cast<int>(e) != bent) {
+      EXPECT_TRUE(result.edges[e].kept) << e;
+    }
+  }
+  EXPECT_EQ(result.NumParts(), 1);
+  EXPECT_EQ(result.excluded, std::vector<bool>(4, false));
+  const Errors errors = MaxErrors(result, problem);
+  EXPECT_LT(errors.rotation_deg, 1e-6);
+  EXPECT_LT(errors.position, 1e-5);
+
+  // At full weight, the wrong edge outweighs the smallest community's
+  // right ones: one of them takes the disagreement and the wrong edge
+  // stays, placing communities 25 degrees off.
+  SimilarityAveragingOptions trusting;
+  trusting.min_num_contradicting_shared_images = 0;
+  const SimilarityAveragingResult trusted =
+      AverageSimilarities(problem.Communities(), problem.edges, trusting);
+  EXPECT_TRUE(trusted.edges[bent].kept);
+  EXPECT_EQ(trusted.NumParts(), 1);
+  EXPECT_GT(MaxErrors(trusted, problem).rotation_deg, 20);
+}
+
 // A cycle whose wrong edge joins its two largest communities (the heaviest
 // edge) and is contradicted by its shared images, 3 of 6 placed elsewhere
 // (on South Building, a community had registered three borrowed images 5
