@@ -700,8 +700,9 @@ void ParseCommand(int argc,
   add("min_num_contradicting_shared_images",
       &mapper_options.similarity_averaging.min_num_contradicting_shared_images,
       "a similarity under which at least this many shared images are placed "
-      "elsewhere, and no fewer alike, is left out of the averaging from the "
-      "start (0: never)");
+      "elsewhere is in doubt (a tenth of its weight in the averaging), and "
+      "with no fewer alike left out of the averaging from the start (0: "
+      "never)");
   add("min_num_shared_images_on_bridge",
       &mapper_options.similarity_averaging.min_num_shared_images_on_bridge,
       "a similarity on no cycle of kept similarities is dropped unless at "
