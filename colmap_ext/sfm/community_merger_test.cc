@@ -1,8 +1,10 @@
 #include "colmap_ext/sfm/community_merger.h"
 
+#include "colmap_ext/scene/model_evaluation.h"
 #include "colmap_ext/scene/synthetic_scene.h"
 #include "colmap_ext/util/testing.h"
 
+#include "colmap/geometry/pose.h"
 #include "colmap/scene/database_cache.h"
 #include "colmap/util/misc.h"
 
@@ -213,6 +215,78 @@ TEST_F(JoinReconstructionsTest, RestrictToImagesDropsBorrowedImages) {
 // The refinement leaves pairs out of the merged model's correspondence
 // graph (patches/0002): exactly those, and the others keep all their
 // matches.
+// A community's mapper can register an image by what that community sees,
+// far from where the whole model puts it (on South Building, 6 units off by
+// points no other community had). In the merged model it then holds few
+// observations, and the refinement must register it again rather than keep
+// it there or drop it.
+TEST(RefineMergedModel, RegistersAgainAnImageItHoldsByFewObservations) {
+  const std::string test_dir = CreateTestFolder();
+  SyntheticSceneOptions scene_options;
+  scene_options.num_clusters = 2;
+  scene_options.num_images_per_cluster = 15;
+  scene_options.num_images_per_link = 10;
+  scene_options.close_loop = false;
+  scene_options.keypoint_noise = 0.5;
+  scene_options.seed = 12;
+  Database database(JoinPaths(test_dir, "database.db"));
+  SyntheticScene scene;
+  SynthesizeCommunityScene(scene_options, &scene, &database);
+  const std::shared_ptr<const DatabaseCache> database_cache =
+      DatabaseCache::Create(database,
+                            /*min_num_matches=*/15,
+                            /*ignore_watermarks=*/false,
+                            /*image_names=*/{});
+
+  auto model = std::make_shared<Reconstruction>(scene.ground_truth);
+  std::unordered_map<image_t, int> community_of_image;
+  for (const image_t image_id : model->RegImageIds()) {
+    community_of_image[image_id] = scene.image_cluster.at(image_id) == 1;
+  }
+  const ModelEvaluation truth = EvaluateModel(*model, scene.ground_truth);
+  // An image of the first cluster, turned by 30 degrees and moved by a
+  // quarter of the extent.
+  const image_t misplaced =
+      *std::find_if(model->RegImageIds().begin(),
+                    model->RegImageIds().end(),
+                    [&](const image_t image_id) {
+                      return scene.image_cluster.at(image_id) == 0 &&
+                             image_id != model->RegImageIds()[0] &&
+                             image_id != model->RegImageIds()[1];
+                    });
+  Rigid3d& cam_from_world = model->Image(misplaced).CamFromWorld();
+  cam_from_world = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(
+                               DegToRad(30.0), Eigen::Vector3d::UnitY())),
+                           Eigen::Vector3d(0.25 * truth.extent, 0, 0)) *
+                   cam_from_world;
+  ASSERT_GT(EvaluateModel(*model, scene.ground_truth).max_position_error,
+            0.1 * truth.extent);
+  // Its observations there were of points no other community has: none is
+  // left in the merged model.
+  for (point2D_t point2D_idx = 0;
+       point2D_idx < model->Image(misplaced).NumPoints2D();
+       ++point2D_idx) {
+    if (model->Image(misplaced).Point2D(point2D_idx).HasPoint3D()) {
+      model->DeleteObservation(misplaced, point2D_idx);
+    }
+  }
+
+  IncrementalMapperOptions mapper_options;
+  mapper_options.num_threads = 1;
+  const MergedModelRefinementSummary summary = RefineMergedModel(
+      MergedModelRefinementOptions(),
+      mapper_options,
+      [&]() { return database_cache; },
+      community_of_image,
+      /*offered_models=*/{},
+      model);
+  EXPECT_GE(summary.num_newly_registered_images, 1);
+  EXPECT_TRUE(model->IsImageRegistered(misplaced));
+  EXPECT_EQ(model->NumRegImages(), scene.ground_truth.NumRegImages());
+  const ModelEvaluation evaluation = EvaluateModel(*model, scene.ground_truth);
+  EXPECT_LT(evaluation.max_position_error, 0.01 * truth.extent);
+}
+
 TEST(DatabaseCache, ImagePairFilterLeavesOutExactlyThePairsRefused) {
   const std::string test_dir = CreateTestFolder();
   SyntheticSceneOptions options;
