@@ -212,9 +212,6 @@ TEST_F(JoinReconstructionsTest, RestrictToImagesDropsBorrowedImages) {
   EXPECT_EQ(RestrictToImages(owned2_, model2), model2);
 }
 
-// The refinement leaves pairs out of the merged model's correspondence
-// graph (patches/0002): exactly those, and the others keep all their
-// matches.
 // A community's mapper can register an image by what that community sees,
 // far from where the whole model puts it (on South Building, 6 units off by
 // points no other community had). In the merged model it then holds few
@@ -287,6 +284,9 @@ TEST(RefineMergedModel, RegistersAgainAnImageItHoldsByFewObservations) {
   EXPECT_LT(evaluation.max_position_error, 0.01 * truth.extent);
 }
 
+// The refinement leaves pairs out of the merged model's correspondence
+// graph (patches/0002): exactly those, and the others keep all their
+// matches.
 TEST(DatabaseCache, ImagePairFilterLeavesOutExactlyThePairsRefused) {
   const std::string test_dir = CreateTestFolder();
   SyntheticSceneOptions options;

@@ -254,6 +254,20 @@ SimilarityAveragingResult::EdgeReport ComputeResiduals(
   return report;
 }
 
+// Images both communities registered that the two models place elsewhere
+// under the edge's similarity.
+int NumSharedImagesPlacedElsewhere(const RelativeSimilarity& edge) {
+  return edge.num_shared_images - edge.num_agreeing_shared_images;
+}
+
+// See SimilarityAveragingOptions::min_num_contradicting_shared_images.
+bool IsEdgeInDoubt(const RelativeSimilarity& edge,
+                   const SimilarityAveragingOptions& options) {
+  return options.min_num_contradicting_shared_images > 0 &&
+         NumSharedImagesPlacedElsewhere(edge) >=
+             options.min_num_contradicting_shared_images;
+}
+
 // Whether at least `min_num_agreeing` of the images both communities of
 // `edge` registered are placed alike under its similarity and at most
 // `max_num_disagreeing` are not.
@@ -261,8 +275,7 @@ bool SharedImagesConfirm(const RelativeSimilarity& edge,
                          const int min_num_agreeing,
                          const int max_num_disagreeing) {
   return edge.num_agreeing_shared_images >= min_num_agreeing &&
-         edge.num_shared_images - edge.num_agreeing_shared_images <=
-             max_num_disagreeing;
+         NumSharedImagesPlacedElsewhere(edge) <= max_num_disagreeing;
 }
 
 bool WithinBounds(const SimilarityAveragingResult::EdgeReport& report,
@@ -379,18 +392,6 @@ int SimilarityAveragingResult::NumParts() const {
                                      part_of_community.end());
 }
 
-namespace {
-
-// See SimilarityAveragingOptions::min_num_contradicting_shared_images.
-bool IsEdgeInDoubt(const RelativeSimilarity& edge,
-                   const SimilarityAveragingOptions& options) {
-  return options.min_num_contradicting_shared_images > 0 &&
-         edge.num_shared_images - edge.num_agreeing_shared_images >=
-             options.min_num_contradicting_shared_images;
-}
-
-}  // namespace
-
 SimilarityAveragingResult AverageSimilarities(
     const std::vector<AveragedCommunity>& communities,
     const std::vector<RelativeSimilarity>& relative_similarities,
@@ -447,11 +448,9 @@ SimilarityAveragingResult AverageSimilarities(
   }
   for (size_t e = 0; e < relative_similarities.size(); ++e) {
     const RelativeSimilarity& edge = relative_similarities[e];
-    const int num_disagreeing =
-        edge.num_shared_images - edge.num_agreeing_shared_images;
     result.edges[e].contradicted =
         IsEdgeInDoubt(edge, options) &&
-        num_disagreeing >= edge.num_agreeing_shared_images;
+        NumSharedImagesPlacedElsewhere(edge) >= edge.num_agreeing_shared_images;
     result.edges[e].kept = !result.excluded[edge.community1] &&
                            !result.excluded[edge.community2] &&
                            !result.edges[e].contradicted;
