@@ -383,13 +383,14 @@ std::shared_ptr<Reconstruction> MergePart(
   LOG(INFO) << StringPrintf(
       "Merged model: %d images, %d points, mean reprojection error %.3f px "
       "(%.3f px before refinement), %d images newly registered (%d as "
-      "blocks)",
+      "blocks), %d misplaced ones registered again",
       static_cast<int>(merged->NumRegImages()),
       static_cast<int>(merged->NumPoints3D()),
       refinement.final_mean_reprojection_error,
       refinement.initial_mean_reprojection_error,
       refinement.num_newly_registered_images,
-      refinement.num_block_registered_images);
+      refinement.num_block_registered_images,
+      refinement.num_reregistered_images);
   if (options.incremental_options.extract_colors) {
     merged->ExtractColorsForAllImages(options.image_path);
   }

@@ -469,6 +469,17 @@ MergedModelRefinementSummary RefineMergedModel(
   auto mapper = std::make_unique<IncrementalMapper>(std::move(database_cache));
   mapper->BeginReconstruction(reconstruction);
 
+  // The images deregistered as misplaced in step (3), each at most once.
+  std::unordered_set<image_t> deregistered_images;
+  const auto num_registered_again = [&]() {
+    return static_cast<size_t>(
+        std::count_if(deregistered_images.begin(),
+                      deregistered_images.end(),
+                      [&](const image_t image_id) {
+                        return reconstruction->IsImageRegistered(image_id);
+                      }));
+  };
+
   // Images that no community registered (those of communities without a
   // model, or left out by their community's mapper) are registered as the
   // incremental mapper does: one at a time, the best candidate first, each
@@ -548,6 +559,7 @@ MergedModelRefinementSummary RefineMergedModel(
     registration_timer.Start();
     const size_t num_reg_images_before = reconstruction->NumRegImages();
     const int num_block_images_before = summary.num_block_registered_images;
+    const size_t num_again_before = num_registered_again();
     num_tried_shared_images.assign(offered_models.size(), 0);
     register_offered_blocks();
     while (true) {
@@ -573,13 +585,18 @@ MergedModelRefinementSummary RefineMergedModel(
     }
     const size_t num_registered =
         reconstruction->NumRegImages() - num_reg_images_before;
-    summary.num_newly_registered_images += static_cast<int>(num_registered);
+    const size_t num_again = num_registered_again() - num_again_before;
+    summary.num_newly_registered_images +=
+        static_cast<int>(num_registered - num_again);
+    summary.num_reregistered_images += static_cast<int>(num_again);
     if (num_registered > 0 || log_none) {
       LOG(INFO) << StringPrintf(
           "Registered %d images that no community of the model had "
-          "registered, %d of them as blocks (%.1fs)",
-          static_cast<int>(num_registered),
+          "registered, %d of them as blocks, and %d deregistered ones again "
+          "(%.1fs)",
+          static_cast<int>(num_registered - num_again),
           summary.num_block_registered_images - num_block_images_before,
+          static_cast<int>(num_again),
           registration_timer.ElapsedSeconds());
     }
     return num_registered;
@@ -647,7 +664,6 @@ MergedModelRefinementSummary RefineMergedModel(
   // no other community shared; in the merged model it kept 39 observations
   // of its visible points, where the median image kept 2011.
   constexpr double kMinObservedVisibleFraction = 0.1;
-  std::unordered_set<image_t> deregistered_images;
   const auto deregister_misplaced_images = [&]() {
     ObservationManager& observations = mapper->ObservationManager();
     std::vector<image_t> misplaced_image_ids;

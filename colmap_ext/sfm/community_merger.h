@@ -239,9 +239,14 @@ struct MergedModelRefinementOptions {
 double CameraCovisibilityDensity(const Reconstruction& reconstruction);
 
 struct MergedModelRefinementSummary {
+  // Images no community of the model had registered, registered by the
+  // refinement.
   int num_newly_registered_images = 0;
   // Of those, registered as blocks of offered community models.
   int num_block_registered_images = 0;
+  // Images the refinement deregistered as misplaced (they observe few of
+  // their visible points) and registered again.
+  int num_reregistered_images = 0;
   int num_filtered_images = 0;
   double initial_mean_reprojection_error = 0.0;
   double final_mean_reprojection_error = 0.0;

@@ -277,7 +277,8 @@ TEST(RefineMergedModel, RegistersAgainAnImageItHoldsByFewObservations) {
       community_of_image,
       /*offered_models=*/{},
       model);
-  EXPECT_GE(summary.num_newly_registered_images, 1);
+  EXPECT_EQ(summary.num_reregistered_images, 1);
+  EXPECT_EQ(summary.num_newly_registered_images, 0);
   EXPECT_TRUE(model->IsImageRegistered(misplaced));
   EXPECT_EQ(model->NumRegImages(), scene.ground_truth.NumRegImages());
   const ModelEvaluation evaluation = EvaluateModel(*model, scene.ground_truth);
