@@ -3,7 +3,8 @@
 `colmap hierarchical_mapper`, side by side, on generated scenes and real
 photographs.
 
-    scripts/benchmark.py [--quick] [--out OUT] [--methods M,...] [SCENE ...]
+    scripts/benchmark.py [--quick] [--out OUT] [--methods M,...]
+                         [--seeds S,...] [SCENE ...]
 
 Scenes (default: small medium):
   generated, with exact ground truth (build/scene_generator):
@@ -64,6 +65,16 @@ peers are computed within the same run: the machines are shared and noisy,
 so absolute seconds are only context. `--methods` runs a subset (e.g.
 without mapper on the large scene, where it takes hours); ratios to a method
 not run are n/a.
+
+`--seeds 0,1,2` runs every method once per seed of COLMAP's random number
+generator (`--random_seed`: the RANSAC samples of every registration and
+two-view estimate; 0 is COLMAP's default), the first seed's runs in
+OUT/SCENE/ as without it, the others' in OUT/SCENE/seedS/. On a few hundred
+real photographs two runs of one method differing in the seed alone differ
+in the median camera error by several percent: the table then holds a row
+per method and seed, each compared with the mapper of the same seed, and a
+line per scene gives each method's median over the seeds with its range and
+on how many seeds the bar's checks held.
 """
 
 import argparse
@@ -414,7 +425,7 @@ def prepare_sequence_scene(name, out_dir):
     return (sequence, images, ground_truth, num_images, knobs)
 
 
-def run_scene(name, out_dir, threads, methods):
+def run_scene(name, out_dir, threads, methods, seeds):
     if SEQUENCE_PATTERN.match(name):
         database, images, ground_truth, num_images, knobs = \
             prepare_sequence_scene(name, out_dir)
@@ -427,15 +438,29 @@ def run_scene(name, out_dir, threads, methods):
     else:
         database, images, ground_truth, num_images, knobs = \
             generate_scene(name, out_dir)
+    rows = []
+    for index, seed in enumerate(seeds):
+        scene_dir = os.path.join(out_dir, name) if index == 0 else \
+            os.path.join(out_dir, name, f"seed{seed}")
+        if len(seeds) > 1:
+            log(f"   seed {seed}:")
+        rows += run_methods(name, scene_dir, database, images, ground_truth,
+                            num_images, threads, methods, seed)
+    return rows, knobs
 
+
+def run_methods(name, scene_dir, database, images, ground_truth, num_images,
+                threads, methods, seed):
+    """Runs every method once on the prepared scene, with the PRNG seed;
+    returns a row of figures per method."""
     results = {}
     leaf_size = None
     for method in methods:
-        run_dir = os.path.join(out_dir, name, method)
+        run_dir = os.path.join(scene_dir, method)
         shutil.rmtree(run_dir, ignore_errors=True)
         os.makedirs(run_dir)
         common = ["--database_path", database, "--image_path", images,
-                  "--output_path", run_dir]
+                  "--output_path", run_dir, "--random_seed", str(seed)]
         if method == "mapper":
             command = [COLMAP, "mapper"] + common + \
                 ["--Mapper.num_threads", str(threads)]
@@ -450,13 +475,12 @@ def run_scene(name, out_dir, threads, methods):
                 (["--leaf_max_num_images", str(leaf_size)]
                  if leaf_size else [])
         log(f"   {LABELS[method]} ...")
-        log_path = os.path.join(out_dir, name, method + ".log")
+        log_path = os.path.join(scene_dir, method + ".log")
         status, wall, cpu, rss = run_timed(command, log_path)
-        row = dict(scene=name, method=method, images=num_images,
+        row = dict(scene=name, method=method, seed=seed, images=num_images,
                    exit=status, wall_s=wall, cpu_s=cpu, peak_rss_mb=rss)
         figures = evaluate(run_dir, ground_truth,
-                           os.path.join(out_dir, name,
-                                        method + "_centers.txt"))
+                           os.path.join(scene_dir, method + "_centers.txt"))
         row.update(
             models=int(figures["num_models"]),
             registered=int(figures["registered_images"]),
@@ -486,7 +510,7 @@ def run_scene(name, out_dir, threads, methods):
         results[method] = row
     nan = float("nan")
     errors = {method: center_errors(read_centers(
-        os.path.join(out_dir, name, method + "_centers.txt")))
+        os.path.join(scene_dir, method + "_centers.txt")))
               for method in methods}
     for method in methods:
         row = results[method]
@@ -502,7 +526,7 @@ def run_scene(name, out_dir, threads, methods):
         row["memory_vs_mapper"] = \
             row["peak_rss_mb"] / max(results["mapper"]["peak_rss_mb"], 1e-9) \
             if "mapper" in results else nan
-    return [results[method] for method in methods], knobs
+    return [results[method] for method in methods]
 
 
 def ratio(value, digits):
@@ -515,7 +539,57 @@ def closer_text(row):
     return f"{row['closer_than_mapper']}/{row['common_images']}"
 
 
-def markdown(rows, scene_knobs):
+def bar_checks(scene, rows):
+    """The bar of issue 11 for one run of every method on the scene: one
+    model where the mapper has one, as many images, no larger median error,
+    and half the mapper's time from 500 images on and on South Building.
+    (text, passed) per check; passed is None where the peer did not run."""
+    community = [row for row in rows if row["method"] == "community"][0]
+    mapper = [row for row in rows if row["method"] == "mapper"]
+    hier = [row for row in rows
+            if row["method"] in ("hierarchical", "hier_fair")]
+    needs_speed = community["images"] >= 500 or scene == "southbuilding"
+    return [
+        ("one model where mapper has one",
+         community["models"] == 1 or mapper[0]["models"] > 1
+         if mapper else community["models"] == 1),
+        ("registers at least as many images as mapper",
+         community["registered"] >= mapper[0]["registered"]
+         if mapper else None),
+        ("median position error no worse than mapper's",
+         community["median_pos_err"] <= mapper[0]["median_pos_err"]
+         if mapper else None),
+        ("at most half of mapper's time" +
+         ("" if needs_speed else " (not required under 500 images)"),
+         community["time_vs_mapper"] <= 0.5 if mapper else None),
+        ("faster than hierarchical_mapper in both settings",
+         all(community["wall_s"] < row["wall_s"] for row in hier)
+         if len(hier) == 2 else None),
+    ]
+
+
+def seeds_summary(scene_rows, seeds):
+    """Per method, the median over the seeds of its median camera error,
+    with their range, and of its time against the mapper's."""
+    parts = []
+    for method in METHODS:
+        method_rows = [row for row in scene_rows if row["method"] == method]
+        if not method_rows:
+            continue
+        medians = [row["median_pos_err"] for row in method_rows]
+        text = (f"{LABELS[method]} {statistics.median(medians):.4f} "
+                f"[{min(medians):.4f}-{max(medians):.4f}]")
+        ratios = [row["time_vs_mapper"] for row in method_rows
+                  if row["time_vs_mapper"] == row["time_vs_mapper"]]
+        if method != "mapper" and ratios:
+            text += f", time / mapper {statistics.median(ratios):.3f}"
+        parts.append(text)
+    return (f"Over the seeds {','.join(str(seed) for seed in seeds)}, median "
+            "position error (median over the seeds [range]): " +
+            "; ".join(parts))
+
+
+def markdown(rows, scene_knobs, seeds):
     lines = []
     for scene, knobs in scene_knobs.items():
         scene_rows = [row for row in rows if row["scene"] == scene]
@@ -531,8 +605,10 @@ def markdown(rows, scene_knobs):
                      "time / hier. | time / hier. fair | memory / mapper |")
         lines.append("|" + "---|" * 16)
         for row in scene_rows:
+            label = LABELS[row["method"]] + \
+                (f", seed {row['seed']}" if len(seeds) > 1 else "")
             lines.append(
-                f"| {LABELS[row['method']]} | {row['wall_s']:.1f} | "
+                f"| {label} | {row['wall_s']:.1f} | "
                 f"{row['cpu_s']:.1f} | {row['peak_rss_mb']:.0f} | "
                 f"{row['models']} | {row['registered']}/{row['images']} | "
                 f"{row['mean_reproj_px']:.3f} | "
@@ -556,36 +632,31 @@ def markdown(rows, scene_knobs):
                      f"communities (median size "
                      f"{community['median_community_size']}); phases: "
                      f"{phases}")
-        mapper = [row for row in scene_rows if row["method"] == "mapper"]
-        hier = [row for row in scene_rows
-                if row["method"] in ("hierarchical", "hier_fair")]
-        # None: the peer did not run. The bar of issue 11: one model where
-        # the mapper has one, as many images, no larger median error, and
-        # half the mapper's time from 500 images on and on South Building.
-        needs_speed = community["images"] >= 500 or scene == "southbuilding"
-        checks = [
-            ("one model where mapper has one",
-             community["models"] == 1 or mapper[0]["models"] > 1
-             if mapper else community["models"] == 1),
-            ("registers at least as many images as mapper",
-             community["registered"] >= mapper[0]["registered"]
-             if mapper else None),
-            ("median position error no worse than mapper's",
-             community["median_pos_err"] <= mapper[0]["median_pos_err"]
-             if mapper else None),
-            ("at most half of mapper's time" +
-             ("" if needs_speed else " (not required under 500 images)"),
-             community["time_vs_mapper"] <= 0.5 if mapper else None),
-            ("faster than hierarchical_mapper in both settings",
-             all(community["wall_s"] < row["wall_s"] for row in hier)
-             if len(hier) == 2 else None),
-        ]
+        # Each seed's runs judged together; with several seeds, on how many
+        # the check held.
+        per_seed = [bar_checks(scene, [row for row in scene_rows
+                                       if row["seed"] == seed])
+                    for seed in seeds]
+        texts = []
+        for index, (text, _) in enumerate(per_seed[0]):
+            results = [checks[index][1] for checks in per_seed]
+            if results[0] is None:
+                texts.append(f"{text}: n/a")
+            elif len(seeds) == 1:
+                texts.append(f"{text}: {'yes' if results[0] else 'NO'}")
+            else:
+                num_held = sum(1 for passed in results if passed)
+                texts.append(
+                    f"{text}: {'yes' if num_held == len(seeds) else 'NO'} "
+                    f"({num_held} of {len(seeds)} seeds)")
         lines.append("")
-        lines.append("Bar: " + "; ".join(
-            f"{text}: {'n/a' if passed is None else 'yes' if passed else 'NO'}"
-            for text, passed in checks))
+        lines.append("Bar: " + "; ".join(texts))
+        if len(seeds) > 1:
+            lines.append("")
+            lines.append(seeds_summary(scene_rows, seeds))
         lines.append("")
-    lines += scaling(rows, scene_knobs)
+    first_rows = [row for row in rows if row["seed"] == seeds[0]]
+    lines += scaling(first_rows, scene_knobs)
     return "\n".join(lines)
 
 
@@ -723,6 +794,10 @@ def main():
                         help="also time community detection alone on a "
                         "generated view graph of N images (e.g. 100000; "
                         "build/partition_benchmark)")
+    parser.add_argument("--seeds", default="0",
+                        help="comma-separated PRNG seeds (--random_seed): "
+                        "every method runs once per seed (default: 0, "
+                        "COLMAP's default)")
     parser.add_argument("--methods", default=",".join(METHODS),
                         help="comma-separated subset of " + ",".join(METHODS) +
                         " (community always runs: hier_fair needs its "
@@ -735,6 +810,12 @@ def main():
     if "community" not in methods:
         methods.append("community")
     methods = [method for method in METHODS if method in methods]
+    try:
+        seeds = [int(seed) for seed in arguments.seeds.split(",")]
+    except ValueError:
+        parser.error(f"--seeds {arguments.seeds}: give integers, e.g. 0,1,2")
+    if len(set(seeds)) != len(seeds) or min(seeds) < 0:
+        parser.error(f"--seeds {arguments.seeds}: give distinct seeds >= 0")
     scenes = []
     default_scenes = [] if arguments.partition_graph else ["small", "medium"]
     for scene in (["quick"] if arguments.quick else
@@ -764,7 +845,7 @@ def main():
     scene_knobs = {}
     for scene in scenes:
         scene_rows, knobs = run_scene(scene, arguments.out, arguments.threads,
-                                      methods)
+                                      methods, seeds)
         rows += scene_rows
         scene_knobs[scene] = knobs
 
@@ -776,7 +857,7 @@ def main():
         writer = csv.DictWriter(file, fieldnames=fields)
         writer.writeheader()
         writer.writerows(rows)
-    table = markdown(rows, scene_knobs) if rows else ""
+    table = markdown(rows, scene_knobs, seeds) if rows else ""
     if arguments.partition_graph > 0:
         table += partition_graph_section(arguments.partition_graph)
     with open(os.path.join(arguments.out, "results.md"), "w") as file:
@@ -784,7 +865,8 @@ def main():
     plotted = False
     if rows:
         try:
-            plot(rows, scene_knobs, arguments.out)
+            plot([row for row in rows if row["seed"] == seeds[0]],
+                 scene_knobs, arguments.out)
             plotted = True
         except ImportError as error:
             # The figures are in results.md and results.csv all the same.

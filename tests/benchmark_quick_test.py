@@ -57,6 +57,37 @@ def check_ground_truth_start(out, community):
     assert 0 <= median_from_truth < 0.01 * extent, (rows[0], extent)
 
 
+def check_seeds():
+    """--seeds runs every method once per seed, with that seed: a row per
+    method and seed, the first seed's runs where a run without --seeds puts
+    them, the others' in SCENE/seedS/, and the table's seed summary."""
+    out = tempfile.mkdtemp(prefix="benchmark_seeds_")
+    subprocess.run([sys.executable, os.path.join(ROOT, "scripts",
+                                                 "benchmark.py"),
+                    "--quick", "--out", out, "--methods", "mapper,community",
+                    "--seeds", "3,7"], check=True)
+    rows = list(csv.DictReader(open(os.path.join(out, "results.csv"))))
+    assert [(row["method"], row["seed"]) for row in rows] == [
+        ("mapper", "3"), ("community", "3"), ("mapper", "7"),
+        ("community", "7")], rows
+    for path, seed in ((os.path.join(out, "quick"), 3),
+                       (os.path.join(out, "quick", "seed7"), 7)):
+        for method in ("mapper", "community"):
+            log = open(os.path.join(path, method + ".log")).read()
+            # /usr/bin/time -v logs the command it ran.
+            assert f"--random_seed {seed}" in log, (path, method)
+            assert os.path.isdir(os.path.join(path, method, "0")), path
+    table = open(os.path.join(out, "results.md")).read()
+    for text in ("colmap mapper, seed 7", "Over the seeds 3,7",
+                 "of 2 seeds"):
+        assert text in table, text
+    result = subprocess.run(
+        [sys.executable, os.path.join(ROOT, "scripts", "benchmark.py"),
+         "--quick", "--out", out, "--seeds", "1,x"],
+        capture_output=True, text=True)
+    assert result.returncode != 0 and "--seeds" in result.stderr, result
+
+
 def main():
     check_seed_variants()
     out = tempfile.mkdtemp(prefix="benchmark_quick_")
@@ -102,6 +133,7 @@ def main():
         assert os.path.getsize(path) > 10000, path
         assert open(path, "rb").read(8) == b"\x89PNG\r\n\x1a\n", path
     check_ground_truth_start(out, community)
+    check_seeds()
     print(f"benchmark --quick reported every figure ({out})")
 
 
