@@ -4,6 +4,7 @@
 #include "colmap_ext/sfm/community_alignment.h"
 #include "colmap_ext/sfm/community_reconstruction.h"
 #include "colmap_ext/util/atomic_output.h"
+#include "colmap_ext/util/database_retry.h"
 #include "colmap_ext/util/log_tag.h"
 #include "colmap_ext/util/process_memory.h"
 
@@ -16,36 +17,33 @@
 #include "colmap/util/timer.h"
 
 #include <algorithm>
-#include <chrono>
 #include <map>
 #include <set>
-#include <thread>
+#include <stdexcept>
 
 namespace colmap {
 namespace {
 
 using Models = std::vector<std::shared_ptr<Reconstruction>>;
 
-// The database's fingerprint (community_workspace.h). Opening a database
-// runs COLMAP's schema statements, which hold SQLite's write lock for a
-// moment: tasks of a job array that start together found it locked
-// ("database is locked", one run of tests/slurm_test.sh in four under
-// load), so the opening is tried again a few times, as the communities'
-// loading is (community_reconstruction.cc).
+// The database's fingerprint (community_workspace.h), its opening tried
+// again while another task of a job array holds the database
+// (database_retry.h).
 std::string ReadDatabaseFingerprint(const std::string& database_path) {
-  constexpr int kMaxNumAttempts = 5;
-  for (int attempt = 1;; ++attempt) {
-    try {
-      return DatabaseFingerprint(Database(database_path));
-    } catch (const std::exception& error) {
-      if (attempt == kMaxNumAttempts) {
-        throw;
-      }
-      LOG(WARNING) << "Opening " << database_path << " failed (" << error.what()
-                   << "); trying again in " << attempt << "s";
-      std::this_thread::sleep_for(std::chrono::seconds(attempt));
-    }
+  std::string fingerprint;
+  std::string error;
+  if (!RetryDatabaseAccess(
+          database_path,
+          [&]() {
+            fingerprint = DatabaseFingerprint(Database(database_path));
+            return true;
+          },
+          DatabaseRetryOptions(),
+          &error)) {
+    throw std::runtime_error("Could not open the database " + database_path +
+                             ": " + error);
   }
+  return fingerprint;
 }
 
 // The fraction of `image_names` whose camera no other image of the database

@@ -1,6 +1,7 @@
 #include "colmap_ext/sfm/community_reconstruction.h"
 
 #include "colmap_ext/sfm/pose_block_bundle_adjustment.h"
+#include "colmap_ext/util/database_retry.h"
 #include "colmap_ext/util/process_memory.h"
 
 #include "colmap/math/random.h"
@@ -8,8 +9,6 @@
 #include "colmap/util/logging.h"
 
 #include <algorithm>
-#include <chrono>
-#include <thread>
 
 namespace colmap {
 
@@ -24,29 +23,14 @@ CommunityReconstruction ReconstructCommunity(
   IncrementalMapperController mapper(
       options, image_path, database_path, reconstruction_manager);
 
-  constexpr int kMaxNumLoadAttempts = 5;
-  for (int attempt = 1;; ++attempt) {
-    bool loaded = false;
-    try {
-      std::lock_guard<std::mutex> lock(*database_mutex);
-      loaded = mapper.LoadDatabase();
-    } catch (const std::exception& error) {
-      // E.g. "database is locked" while another process opens it.
-      LOG(WARNING) << "Loading " << database_path
-                   << " failed: " << error.what();
-    }
-    if (loaded) {
-      break;
-    }
-    if (attempt == kMaxNumLoadAttempts) {
-      LOG(WARNING) << "No images with matches could be loaded from "
-                   << database_path;
-      return CommunityReconstruction();
-    }
-    LOG(WARNING) << "Loading the database found nothing (is another process "
-                    "opening it?); trying again in "
-                 << attempt << "s";
-    std::this_thread::sleep_for(std::chrono::seconds(attempt));
+  // Another process may hold the database for a moment (database_retry.h).
+  if (!RetryDatabaseAccess(database_path, [&]() {
+        std::lock_guard<std::mutex> lock(*database_mutex);
+        return mapper.LoadDatabase();
+      })) {
+    LOG(WARNING) << "No images with matches could be loaded from "
+                 << database_path;
+    return CommunityReconstruction();
   }
   // The correspondence graph's construction freed a vector per keypoint.
   ReleaseFreedMemory();

@@ -1,0 +1,51 @@
+#include "colmap_ext/util/database_retry.h"
+
+#include "colmap/util/logging.h"
+
+#include <chrono>
+#include <exception>
+#include <thread>
+
+namespace colmap {
+
+bool DatabaseRetryOptions::Check() const {
+  CHECK_OPTION_GT(max_num_attempts, 0);
+  CHECK_OPTION_GE(wait_seconds, 0);
+  return true;
+}
+
+bool RetryDatabaseAccess(const std::string& database_path,
+                         const std::function<bool()>& access,
+                         const DatabaseRetryOptions& options,
+                         std::string* last_error) {
+  THROW_CHECK(options.Check());
+  for (int attempt = 1;; ++attempt) {
+    std::string error;
+    bool succeeded = false;
+    try {
+      succeeded = access();
+    } catch (const std::exception& exception) {
+      error = exception.what();
+    }
+    if (last_error != nullptr) {
+      *last_error = error;
+    }
+    if (succeeded) {
+      return true;
+    }
+    if (attempt == options.max_num_attempts) {
+      LOG(WARNING) << "Giving up on " << database_path << " after " << attempt
+                   << " attempts" << (error.empty() ? "" : " (" + error + ")");
+      return false;
+    }
+    const double wait_seconds = attempt * options.wait_seconds;
+    LOG(WARNING) << "Reading " << database_path << " failed ("
+                 << (error.empty()
+                         ? "found nothing: is another process opening it?"
+                         : error)
+                 << "); trying again in " << wait_seconds << "s";
+    std::this_thread::sleep_for(std::chrono::duration<double>(wait_seconds));
+  }
+}
+
+}  // namespace colmap

@@ -1,0 +1,35 @@
+// Access to a COLMAP database that another process may hold for a moment.
+//
+// Opening a database runs COLMAP's schema statements, which hold SQLite's
+// write lock briefly: the tasks of a job array that start together find it
+// locked ("database is locked", one run of tests/slurm_test.sh in four under
+// load). Such an access is tried again a few times, waiting longer each time.
+
+#pragma once
+
+#include <functional>
+#include <string>
+
+namespace colmap {
+
+struct DatabaseRetryOptions {
+  // Attempts in all, the first included.
+  int max_num_attempts = 5;
+  // The wait after the k-th failed attempt is k times this.
+  double wait_seconds = 1.0;
+
+  bool Check() const;
+};
+
+// Calls `access` until it returns true, at most `max_num_attempts` times. An
+// exception it throws (as SQLite's "database is locked") counts as a failed
+// attempt; each failure is logged with `database_path` and the wait before
+// the next. Returns whether an attempt succeeded; `last_error`, if given,
+// receives the message of the last attempt's exception (empty where it
+// returned false instead).
+bool RetryDatabaseAccess(const std::string& database_path,
+                         const std::function<bool()>& access,
+                         const DatabaseRetryOptions& options = {},
+                         std::string* last_error = nullptr);
+
+}  // namespace colmap

@@ -1,0 +1,99 @@
+#include "colmap_ext/util/database_retry.h"
+
+#include "colmap_ext/util/testing.h"
+
+#include "colmap/scene/database.h"
+#include "colmap/util/misc.h"
+
+#include <stdexcept>
+
+#include <gtest/gtest.h>
+#include <sqlite3.h>
+
+namespace colmap {
+namespace {
+
+DatabaseRetryOptions QuickOptions() {
+  DatabaseRetryOptions options;
+  options.max_num_attempts = 4;
+  options.wait_seconds = 0.001;
+  return options;
+}
+
+TEST(RetryDatabaseAccess, TriesAgainUntilAnAttemptSucceeds) {
+  int num_calls = 0;
+  std::string last_error = "not cleared";
+  EXPECT_TRUE(RetryDatabaseAccess(
+      "db",
+      [&]() {
+        ++num_calls;
+        if (num_calls == 1) {
+          throw std::runtime_error("database is locked");
+        }
+        return num_calls == 3;
+      },
+      QuickOptions(),
+      &last_error));
+  EXPECT_EQ(num_calls, 3);
+  EXPECT_EQ(last_error, "");
+}
+
+TEST(RetryDatabaseAccess, GivesUpAfterItsAttemptsWithTheLastError) {
+  int num_calls = 0;
+  std::string last_error;
+  EXPECT_FALSE(RetryDatabaseAccess(
+      "db",
+      [&]() -> bool {
+        ++num_calls;
+        throw std::runtime_error("locked " + std::to_string(num_calls));
+      },
+      QuickOptions(),
+      &last_error));
+  EXPECT_EQ(num_calls, 4);
+  EXPECT_EQ(last_error, "locked 4");
+
+  num_calls = 0;
+  EXPECT_FALSE(RetryDatabaseAccess(
+      "db", [&]() { return ++num_calls < 0; }, QuickOptions(), &last_error));
+  EXPECT_EQ(num_calls, 4);
+  EXPECT_EQ(last_error, "");
+}
+
+// Another process (here: another connection, holding the database in
+// SQLite's exclusive locking mode after a write) keeps it locked while the
+// first attempts open it; once it lets go, the opening succeeds.
+TEST(RetryDatabaseAccess, OpensADatabaseOnceItsLockIsReleased) {
+  const std::string path = JoinPaths(CreateTestFolder(), "database.db");
+  { Database database(path); }
+  sqlite3* holder = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &holder), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(holder,
+                         "PRAGMA locking_mode=EXCLUSIVE; BEGIN EXCLUSIVE; "
+                         "CREATE TABLE held (x INTEGER); COMMIT;",
+                         nullptr,
+                         nullptr,
+                         nullptr),
+            SQLITE_OK);
+  int num_calls = 0;
+  std::string last_error;
+  EXPECT_TRUE(RetryDatabaseAccess(
+      path,
+      [&]() {
+        if (++num_calls == 3) {
+          sqlite3_close(holder);
+          holder = nullptr;
+        }
+        const Database database(path);
+        return database.NumImages() == 0;
+      },
+      QuickOptions(),
+      &last_error));
+  EXPECT_EQ(num_calls, 3);
+  EXPECT_EQ(last_error, "");
+  if (holder != nullptr) {
+    sqlite3_close(holder);
+  }
+}
+
+}  // namespace
+}  // namespace colmap
