@@ -61,9 +61,9 @@ struct CovisibilityCheckOptions {
   // (too few to judge): one model of all 75. The other nine subsets, South
   // Building, and the generated courtyard, open chain and dense scene merged as
   // at 60 (merge-stage reruns, the same models), and the identical towers are
-  // not stacked (tests). The rate ratios below were measured at 60 degrees; at
-  // 45 South Building's wrong hypothesis between two of its communities had
-  // 0.032 (0.028 at 60).
+  // not stacked (tests; PairsSeenUnderWideAnglesSayNothing is the corner). The
+  // rate ratios below were measured at 60 degrees; at 45 South Building's wrong
+  // hypothesis between two of its communities had 0.032 (0.028 at 60).
   double max_ray_angle_deg = 45.0;
 
   // Pairs are tested up to this quantile of the centre distances of the

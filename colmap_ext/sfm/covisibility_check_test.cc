@@ -2,6 +2,7 @@
 
 #include "colmap_ext/scene/synthetic_scene.h"
 
+#include "colmap/math/math.h"
 #include "colmap/scene/database.h"
 
 #include <unordered_set>
@@ -160,6 +161,91 @@ TEST_F(CheckCovisibilityTest, ModelsFarApartSayNothing) {
       Check(Inverse(world_from_model2_) * far_apart * world_from_model1_);
   EXPECT_TRUE(check.consistent);
   EXPECT_EQ(check.num_predicted_cross_pairs, 0);
+}
+
+// A wall seen by two groups of cameras whose rays to it are 46-58 degrees
+// apart (as the two faces of a building's corner), each group a model of its
+// own, rightly aligned. The matcher verified every pair within a group and
+// none across: SIFT seldom matches across such a viewpoint change, so those
+// pairs say nothing about the alignment (South Building's subset sb60_6,
+// stop 39: a right link refused at 60 degrees).
+Reconstruction WallSeenFrom(const double tilt_deg,
+                            const image_t first_image_id) {
+  Reconstruction model;
+  model.AddCamera(
+      Camera::CreateFromModelName(1, "SIMPLE_PINHOLE", 2000, 2000, 2000));
+  std::vector<Eigen::Vector3d> wall;
+  for (double x = -4; x <= 4; x += 0.5) {
+    for (double y = -12; y <= 12; y += 0.5) {
+      wall.emplace_back(x, y, 0);
+    }
+  }
+  constexpr double kDistance = 10;
+  const double tilt = DegToRad(tilt_deg);
+  std::vector<Track> tracks(wall.size());
+  for (int k = 0; k < 5; ++k) {
+    const double y = -8 + 4 * k;
+    const Eigen::Vector3d center(
+        kDistance * std::sin(tilt), y, -kDistance * std::cos(tilt));
+    const Eigen::Vector3d axis_z =
+        (Eigen::Vector3d(0, y, 0) - center).normalized();
+    const Eigen::Vector3d axis_x =
+        Eigen::Vector3d::UnitY().cross(axis_z).normalized();
+    Eigen::Matrix3d cam_from_world_rotation;
+    cam_from_world_rotation.row(0) = axis_x;
+    cam_from_world_rotation.row(1) = axis_z.cross(axis_x);
+    cam_from_world_rotation.row(2) = axis_z;
+    Image image;
+    image.SetImageId(first_image_id + k);
+    image.SetCameraId(1);
+    image.SetName(std::to_string(first_image_id + k));
+    image.CamFromWorld() = Rigid3d(Eigen::Quaterniond(cam_from_world_rotation),
+                                   -cam_from_world_rotation * center);
+    std::vector<Eigen::Vector2d> points2D;
+    for (size_t i = 0; i < wall.size(); ++i) {
+      const Eigen::Vector3d in_cam = image.CamFromWorld() * wall[i];
+      const Eigen::Vector2d xy =
+          model.Camera(1).ImgFromCam(in_cam.hnormalized());
+      if (in_cam.z() > 0 && xy.x() >= 0 && xy.y() >= 0 && xy.x() < 2000 &&
+          xy.y() < 2000) {
+        tracks[i].AddElement(image.ImageId(), points2D.size());
+        points2D.push_back(xy);
+      }
+    }
+    image.SetPoints2D(points2D);
+    model.AddImage(image);
+    model.RegisterImage(image.ImageId());
+  }
+  for (size_t i = 0; i < wall.size(); ++i) {
+    if (tracks[i].Length() >= 2) {
+      model.AddPoint3D(wall[i], tracks[i]);
+    }
+  }
+  return model;
+}
+
+TEST(CheckCovisibility, PairsSeenUnderWideAnglesSayNothing) {
+  const Reconstruction left = WallSeenFrom(-29, 1);
+  const Reconstruction right = WallSeenFrom(29, 101);
+  // Within a group, as the matcher verified.
+  const auto is_verified = [](const image_t a, const image_t b) {
+    return (a < 100) == (b < 100);
+  };
+  CovisibilityCheckOptions options;
+  const CovisibilityCheck check = CheckCovisibility(
+      left, right, Sim3d(), is_verified, /*is_compared_pair=*/{}, options);
+  EXPECT_TRUE(check.consistent);
+  EXPECT_LT(check.num_predicted_cross_pairs, options.min_num_predicted_pairs);
+  EXPECT_GT(check.num_predicted_internal_pairs, 0);
+  // Counting points under rays up to 60 degrees apart, the pairs across are
+  // predicted co-visible, none was matched, and the right alignment is
+  // refused.
+  options.max_ray_angle_deg = 60;
+  const CovisibilityCheck wide = CheckCovisibility(
+      left, right, Sim3d(), is_verified, /*is_compared_pair=*/{}, options);
+  EXPECT_GE(wide.num_predicted_cross_pairs, options.min_num_predicted_pairs);
+  EXPECT_EQ(wide.num_verified_cross_pairs, 0);
+  EXPECT_FALSE(wide.consistent);
 }
 
 TEST(CovisibilityCheckOptions, Check) {
