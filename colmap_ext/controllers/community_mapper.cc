@@ -47,15 +47,24 @@ std::string ReadDatabaseFingerprint(const std::string& database_path) {
 }
 
 // The fraction of `image_names` whose camera no other image of the database
-// uses.
+// uses. The reading is tried again while another process holds the database
+// (database_retry.h), as the community's loading is: a community's settings
+// must not depend on whether the database was locked a moment.
 double OwnCameraFraction(const std::string& database_path,
                          const std::unordered_set<std::string>& image_names,
                          std::mutex* database_mutex) {
   std::vector<Image> images;
-  {
-    std::lock_guard<std::mutex> lock(*database_mutex);
-    const Database database(database_path);
-    images = database.ReadAllImages();
+  std::string error;
+  if (!RetryDatabaseAccess(
+          database_path,
+          [&]() {
+            std::lock_guard<std::mutex> lock(*database_mutex);
+            images = Database(database_path).ReadAllImages();
+            return true;
+          },
+          DatabaseRetryOptions(),
+          &error)) {
+    throw std::runtime_error(error);
   }
   std::unordered_map<camera_t, int> num_images_of_camera;
   for (const Image& image : images) {
@@ -1139,8 +1148,8 @@ bool CommunityMapperController::ReconstructAndRecord(
         own_camera_fraction = OwnCameraFraction(
             options_.database_path, image_names, database_mutex);
       } catch (const std::exception& error) {
-        // E.g. "database is locked" while another process opens it: the
-        // community settings then apply.
+        // E.g. "database is locked" after every retry: the community
+        // settings then apply.
         LOG(WARNING) << "Reading the cameras of the images failed: "
                      << error.what();
       }
