@@ -110,7 +110,7 @@ struct MergedModelRefinementOptions {
   // `max_refinement_change` of the observations change.
   //
   // The refinement ends close to where step (1) leaves it (its adjustments
-  // converge in 2-3 iterations each), so this cap moves the result within
+  // converge in 2-6 iterations each), so this cap moves the result within
   // what the data cannot tell apart. Merge stage reruns on the same
   // communities (stop 40), median camera error with 200 / all points (2000
   // already takes all): South Building, five seeds, 0.0121-0.0125 /
