@@ -73,25 +73,6 @@ struct ScenePose {
   int cluster = -1;
 };
 
-// Camera at `center` looking towards `target` (world z up), rolled by `roll`.
-Rigid3d LookAt(const Eigen::Vector3d& center,
-               const Eigen::Vector3d& target,
-               const double roll) {
-  const Eigen::Vector3d forward = (target - center).normalized();
-  const Eigen::Vector3d right =
-      forward.cross(Eigen::Vector3d::UnitZ()).normalized();
-  const Eigen::Vector3d down = forward.cross(right);
-  Eigen::Matrix3d R;
-  R.row(0) = right.transpose();
-  R.row(1) = down.transpose();
-  R.row(2) = forward.transpose();
-  R = Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()).toRotationMatrix() * R;
-  Rigid3d cam_from_world;
-  cam_from_world.rotation = Eigen::Quaterniond(R);
-  cam_from_world.translation = -(R * center);
-  return cam_from_world;
-}
-
 // Whether the segment from a to b passes through a tower (in the ground
 // plane; towers are taller than anything behind them). A point on a tower's
 // surface that faces a is not hidden by its own tower: the segment only
@@ -113,6 +94,24 @@ bool HiddenByTower(const Eigen::Vector3d& a,
 }
 
 }  // namespace
+
+Rigid3d LookAt(const Eigen::Vector3d& center,
+               const Eigen::Vector3d& target,
+               const double roll) {
+  const Eigen::Vector3d forward = (target - center).normalized();
+  const Eigen::Vector3d right =
+      forward.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d down = forward.cross(right);
+  Eigen::Matrix3d R;
+  R.row(0) = right.transpose();
+  R.row(1) = down.transpose();
+  R.row(2) = forward.transpose();
+  R = Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()).toRotationMatrix() * R;
+  Rigid3d cam_from_world;
+  cam_from_world.rotation = Eigen::Quaterniond(R);
+  cam_from_world.translation = -(R * center);
+  return cam_from_world;
+}
 
 bool SyntheticSceneOptions::Check() const {
   CHECK_OPTION_GE(num_clusters, 1);

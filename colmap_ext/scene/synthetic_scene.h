@@ -143,6 +143,12 @@ void PerturbReconstruction(double max_rotation_deg,
                            unsigned seed,
                            Reconstruction* reconstruction);
 
+// The pose of a camera at `center` looking towards `target`, its image rows
+// horizontal (world z up), rolled by `roll` (radians) about its axis.
+Rigid3d LookAt(const Eigen::Vector3d& center,
+               const Eigen::Vector3d& target,
+               double roll);
+
 // Writes "IMAGE_NAME CLUSTER" lines (cluster -1: walkway) to a text file.
 void WriteImageClusters(const SyntheticScene& scene, const std::string& path);
 

@@ -176,31 +176,22 @@ Reconstruction WallSeenFrom(const double tilt_deg,
       Camera::CreateFromModelName(1, "SIMPLE_PINHOLE", 2000, 2000, 2000));
   std::vector<Eigen::Vector3d> wall;
   for (double x = -4; x <= 4; x += 0.5) {
-    for (double y = -12; y <= 12; y += 0.5) {
-      wall.emplace_back(x, y, 0);
+    for (double z = -12; z <= 12; z += 0.5) {
+      wall.emplace_back(x, 0, z);
     }
   }
   constexpr double kDistance = 10;
   const double tilt = DegToRad(tilt_deg);
   std::vector<Track> tracks(wall.size());
   for (int k = 0; k < 5; ++k) {
-    const double y = -8 + 4 * k;
+    const double z = -8 + 4 * k;
     const Eigen::Vector3d center(
-        kDistance * std::sin(tilt), y, -kDistance * std::cos(tilt));
-    const Eigen::Vector3d axis_z =
-        (Eigen::Vector3d(0, y, 0) - center).normalized();
-    const Eigen::Vector3d axis_x =
-        Eigen::Vector3d::UnitY().cross(axis_z).normalized();
-    Eigen::Matrix3d cam_from_world_rotation;
-    cam_from_world_rotation.row(0) = axis_x;
-    cam_from_world_rotation.row(1) = axis_z.cross(axis_x);
-    cam_from_world_rotation.row(2) = axis_z;
+        kDistance * std::sin(tilt), kDistance * std::cos(tilt), z);
     Image image;
     image.SetImageId(first_image_id + k);
     image.SetCameraId(1);
     image.SetName(std::to_string(first_image_id + k));
-    image.CamFromWorld() = Rigid3d(Eigen::Quaterniond(cam_from_world_rotation),
-                                   -cam_from_world_rotation * center);
+    image.CamFromWorld() = LookAt(center, Eigen::Vector3d(0, 0, z), 0);
     std::vector<Eigen::Vector2d> points2D;
     for (size_t i = 0; i < wall.size(); ++i) {
       const Eigen::Vector3d in_cam = image.CamFromWorld() * wall[i];
