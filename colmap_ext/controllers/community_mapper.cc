@@ -19,7 +19,6 @@
 #include <algorithm>
 #include <map>
 #include <set>
-#include <stdexcept>
 
 namespace colmap {
 namespace {
@@ -31,18 +30,9 @@ using Models = std::vector<std::shared_ptr<Reconstruction>>;
 // (database_retry.h).
 std::string ReadDatabaseFingerprint(const std::string& database_path) {
   std::string fingerprint;
-  std::string error;
-  if (!RetryDatabaseAccess(
-          database_path,
-          [&]() {
-            fingerprint = DatabaseFingerprint(Database(database_path));
-            return true;
-          },
-          DatabaseRetryOptions(),
-          &error)) {
-    throw std::runtime_error("Could not open the database " + database_path +
-                             ": " + error);
-  }
+  RetryDatabaseAccessOrThrow(database_path, [&]() {
+    fingerprint = DatabaseFingerprint(Database(database_path));
+  });
   return fingerprint;
 }
 
@@ -54,18 +44,10 @@ double OwnCameraFraction(const std::string& database_path,
                          const std::unordered_set<std::string>& image_names,
                          std::mutex* database_mutex) {
   std::vector<Image> images;
-  std::string error;
-  if (!RetryDatabaseAccess(
-          database_path,
-          [&]() {
-            std::lock_guard<std::mutex> lock(*database_mutex);
-            images = Database(database_path).ReadAllImages();
-            return true;
-          },
-          DatabaseRetryOptions(),
-          &error)) {
-    throw std::runtime_error(error);
-  }
+  RetryDatabaseAccessOrThrow(database_path, [&]() {
+    std::lock_guard<std::mutex> lock(*database_mutex);
+    images = Database(database_path).ReadAllImages();
+  });
   std::unordered_map<camera_t, int> num_images_of_camera;
   for (const Image& image : images) {
     ++num_images_of_camera[image.CameraId()];

@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <exception>
+#include <stdexcept>
 #include <thread>
 
 namespace colmap {
@@ -45,6 +46,23 @@ bool RetryDatabaseAccess(const std::string& database_path,
                          : error)
                  << "); trying again in " << wait_seconds << "s";
     std::this_thread::sleep_for(std::chrono::duration<double>(wait_seconds));
+  }
+}
+
+void RetryDatabaseAccessOrThrow(const std::string& database_path,
+                                const std::function<void()>& access,
+                                const DatabaseRetryOptions& options) {
+  std::string error;
+  if (!RetryDatabaseAccess(
+          database_path,
+          [&]() {
+            access();
+            return true;
+          },
+          options,
+          &error)) {
+    throw std::runtime_error("Could not read the database " + database_path +
+                             ": " + error);
   }
 }
 

@@ -32,4 +32,11 @@ bool RetryDatabaseAccess(const std::string& database_path,
                          const DatabaseRetryOptions& options = {},
                          std::string* last_error = nullptr);
 
+// As RetryDatabaseAccess, for an access that either succeeds or throws: once
+// every attempt threw, throws std::runtime_error naming `database_path` and
+// the last attempt's error.
+void RetryDatabaseAccessOrThrow(const std::string& database_path,
+                                const std::function<void()>& access,
+                                const DatabaseRetryOptions& options = {});
+
 }  // namespace colmap

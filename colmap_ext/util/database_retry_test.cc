@@ -59,6 +59,34 @@ TEST(RetryDatabaseAccess, GivesUpAfterItsAttemptsWithTheLastError) {
   EXPECT_EQ(last_error, "");
 }
 
+TEST(RetryDatabaseAccessOrThrow, ThrowsTheLastErrorWithThePath) {
+  int num_calls = 0;
+  RetryDatabaseAccessOrThrow(
+      "db",
+      [&]() {
+        if (++num_calls < 2) {
+          throw std::runtime_error("database is locked");
+        }
+      },
+      QuickOptions());
+  EXPECT_EQ(num_calls, 2);
+
+  num_calls = 0;
+  try {
+    RetryDatabaseAccessOrThrow(
+        "some.db",
+        [&]() {
+          throw std::runtime_error("locked " + std::to_string(++num_calls));
+        },
+        QuickOptions());
+    ADD_FAILURE() << "no exception";
+  } catch (const std::runtime_error& error) {
+    EXPECT_EQ(std::string(error.what()),
+              "Could not read the database some.db: locked 4");
+  }
+  EXPECT_EQ(num_calls, 4);
+}
+
 // Another process (here: another connection, holding the database in
 // SQLite's exclusive locking mode after a write) keeps it locked while the
 // first attempts open it; once it lets go, the opening succeeds.
