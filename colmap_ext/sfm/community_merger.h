@@ -152,12 +152,14 @@ struct MergedModelRefinementOptions {
   // / 0.00335 and 0.00369 / 0.00356 (colmap mapper 0.0034, 0.0038; 90th
   // percentile 0.0092 / 0.0083, 0.0086 / 0.0077), courtyard loops 0.0157 /
   // 0.0146, 0.0204 / 0.0201, 0.0147 / 0.0144, 0.0110 / 0.0116 (mapper
-  // 0.0164, 0.0210, 0.0227, 0.0112); open chains with a
-  // noise of 1 px (so about 4 px either way) within 1.5%; South Building over five seeds 0.0121-0.0125 /
-  // 0.0123-0.0124 and its ten random subsets from 10% closer to 8% further
-  // (the mean of the log ratios 0.6% closer). At multiples 6 / 8 / 10 stop
-  // 37 had measured South Building matched only within 5 or 10 images of
-  // each other (README "Stop 37").
+  // 0.0164, 0.0210, 0.0227, 0.0112); open chains with a noise of 1 px (so
+  // about 4 px either way) within 1.5%; South Building over five seeds
+  // 0.0121-0.0125 / 0.0123-0.0124 and its ten random subsets from 10%
+  // closer to 8% further (the mean of the log ratios 0.6% closer); South
+  // Building matched only within 5, 10 or 20 images of each other (real
+  // open sequences) 0.00193 / 0.00196, 0.00241 / 0.00186, 0.00448 / 0.00351
+  // (mapper 0.0028, 0.0037, 0.0070). Multiples 0 / 6 / 8 / 10 on real
+  // photographs: README "Stop 37".
   double final_filter_noise_multiple = 4;
 
   // Step (3) stops once fewer than this fraction of the observations
