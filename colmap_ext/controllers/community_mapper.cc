@@ -3,6 +3,7 @@
 #include "colmap_ext/scene/community_io.h"
 #include "colmap_ext/sfm/community_alignment.h"
 #include "colmap_ext/sfm/community_reconstruction.h"
+#include "colmap_ext/sfm/part_offers.h"
 #include "colmap_ext/util/atomic_output.h"
 #include "colmap_ext/util/database_retry.h"
 #include "colmap_ext/util/log_tag.h"
@@ -177,15 +178,6 @@ std::unordered_set<image_t> ImagesNotTaken(
     }
   }
   return left_image_ids;
-}
-
-// The key with the largest count (the first of equal ones).
-int MostCounted(const std::map<int, size_t>& counts) {
-  return std::max_element(
-             counts.begin(),
-             counts.end(),
-             [](const auto& a, const auto& b) { return a.second < b.second; })
-      ->first;
 }
 
 // Joins the communities of one part (connected by kept similarities) into
@@ -499,18 +491,6 @@ void ReadCommunityModels(const CommunityMapperController::Options& options,
   }
 }
 
-// Where the merge offers images that no part of its own holds: to the part
-// whose refinement tries to register them.
-struct PartOffers {
-  // By part: names of the images offered to it (of communities without a
-  // model or that left the merge, and of the parts offered to it).
-  std::map<int, std::unordered_set<std::string>> extra_image_names_of_part;
-  // By part: the communities with a model whose images are offered to it
-  // (those of offered parts, and those in doubt that left the merge for
-  // want of a confirmed link); their models join as blocks where they can.
-  std::map<int, std::vector<int>> offered_communities_of_part;
-};
-
 // Judges every community's own model (JudgeCommunityModels: broken ones
 // leave the merge, doubtful ones count little) and averages the
 // similarities between them; logs each link's residuals and fate. Fills
@@ -611,102 +591,6 @@ std::vector<int> SetAsideExcludedCommunities(
   return set_aside_communities;
 }
 
-// Where the images of communities without a model, and of parts that no
-// kept similarity joins to an earlier one, go (see PartOffers).
-PartOffers PlanPartOffers(const CommunityImages& communities,
-                          const CrossEdges& cross_edges,
-                          const Models& models,
-                          const SimilarityAveragingResult& averaging,
-                          const std::vector<int>& unconfirmed_communities) {
-  const int num_communities = static_cast<int>(models.size());
-  PartOffers offers;
-  // The images of a community without a model are offered to the part its
-  // view-graph edges lead to most, whose refinement registers those it can.
-  std::map<int, std::map<int, size_t>> num_edges_to_part;
-  for (const auto& pair_and_edges : cross_edges) {
-    const int community1 = pair_and_edges.first.first;
-    const int community2 = pair_and_edges.first.second;
-    if (!models[community1] != !models[community2]) {
-      const int unmodelled = models[community1] ? community2 : community1;
-      const int modelled = models[community1] ? community1 : community2;
-      num_edges_to_part[unmodelled][averaging.part_of_community[modelled]] +=
-          pair_and_edges.second.size();
-    }
-  }
-  // A community that left the merge for want of a confirmed link is
-  // offered with its model, which can join as a block.
-  for (const auto& community_and_counts : num_edges_to_part) {
-    const int c = community_and_counts.first;
-    const int best_part = MostCounted(community_and_counts.second);
-    for (const image_t image_id : communities.own_image_ids[c]) {
-      offers.extra_image_names_of_part[best_part].insert(
-          communities.name_of_image.at(image_id));
-    }
-    if (std::find(unconfirmed_communities.begin(),
-                  unconfirmed_communities.end(),
-                  c) != unconfirmed_communities.end()) {
-      offers.offered_communities_of_part[best_part].push_back(c);
-    }
-  }
-  // A part that no similarity joins to an earlier one (larger, or as large)
-  // it has view-graph edges to is offered to the earlier part it has the
-  // most edges to, as the incremental mapper would try to register its
-  // images into the model it grows: whether no transform was found or the
-  // link was dropped, the refinement registers them through their verified
-  // pairs (but those of rejected transforms) with the checks of
-  // IncrementalMapper::RegisterNextImage. Images that register there join
-  // that model; the part keeps only the others. A part offered to one that
-  // is itself offered further is offered there too (its images may join
-  // through the images that join).
-  std::map<int, std::map<int, size_t>> num_edges_between_parts;
-  for (const auto& pair_and_edges : cross_edges) {
-    const int community1 = pair_and_edges.first.first;
-    const int community2 = pair_and_edges.first.second;
-    if (!models[community1] || !models[community2]) {
-      continue;
-    }
-    const int part1 = averaging.part_of_community[community1];
-    const int part2 = averaging.part_of_community[community2];
-    if (part1 != part2) {
-      num_edges_between_parts[std::max(part1, part2)][std::min(part1, part2)] +=
-          pair_and_edges.second.size();
-    }
-  }
-  std::map<int, int> offered_to_part;
-  for (const auto& part_and_counts : num_edges_between_parts) {
-    offered_to_part[part_and_counts.first] =
-        MostCounted(part_and_counts.second);
-  }
-  for (const auto& part_and_target : offered_to_part) {
-    const int part = part_and_target.first;
-    LOG(INFO) << StringPrintf(
-        "No similarity joins part %d to an earlier part: its images are "
-        "offered to part %d's refinement",
-        part,
-        part_and_target.second);
-    std::vector<std::string> part_image_names;
-    for (int c = 0; c < num_communities; ++c) {
-      if (models[c] && averaging.part_of_community[c] == part) {
-        for (const image_t image_id : communities.own_image_ids[c]) {
-          part_image_names.push_back(communities.name_of_image.at(image_id));
-        }
-      }
-    }
-    for (auto target = offered_to_part.find(part);
-         target != offered_to_part.end();
-         target = offered_to_part.find(target->second)) {
-      offers.extra_image_names_of_part[target->second].insert(
-          part_image_names.begin(), part_image_names.end());
-      for (int c = 0; c < num_communities; ++c) {
-        if (models[c] && averaging.part_of_community[c] == part) {
-          offers.offered_communities_of_part[target->second].push_back(c);
-        }
-      }
-    }
-  }
-  return offers;
-}
-
 // Merges every part of the averaging (communities joined by kept
 // similarities) into one model (MergePart), largest parts first as the
 // averaging numbers them, each on the images no earlier part's model
@@ -721,7 +605,7 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
     const CommunityImages& communities,
     const std::vector<RelativeSimilarity>& similarities,
     const SimilarityAveragingResult& averaging,
-    PartOffers offers,
+    const PartOffers& offers,
     const std::vector<int>& set_aside_communities,
     const std::unordered_set<image_pair_t>& false_pairs,
     const ViewGraph& view_graph,
@@ -730,6 +614,16 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
     double* refinement_seconds) {
   Models& models = *models_ptr;
   const int num_communities = static_cast<int>(models.size());
+  // By part: the names of the images offered to it.
+  std::map<int, std::unordered_set<std::string>> extra_image_names_of_part;
+  for (const auto& part_and_communities : offers.image_communities_of_part) {
+    for (const int c : part_and_communities.second) {
+      for (const image_t image_id : communities.own_image_ids[c]) {
+        extra_image_names_of_part[part_and_communities.first].insert(
+            communities.name_of_image.at(image_id));
+      }
+    }
+  }
   // The models written, and the images they registered (which later parts
   // and communities leave out).
   std::vector<std::shared_ptr<Reconstruction>> merged_models;
@@ -782,7 +676,7 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
     for (const image_t image_id : registered_image_ids) {
       const auto it = communities.name_of_image.find(image_id);
       if (it != communities.name_of_image.end()) {
-        offers.extra_image_names_of_part[part].erase(it->second);
+        extra_image_names_of_part[part].erase(it->second);
       }
     }
     if (part_communities.empty()) {
@@ -803,7 +697,7 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
     // A part of one community is taken as it is, unless images of other
     // communities are offered to it.
     if (part_communities.size() == 1 &&
-        offers.extra_image_names_of_part[part].empty()) {
+        extra_image_names_of_part[part].empty()) {
       const int c = part_communities[0];
       std::shared_ptr<Reconstruction> model = left_model(c, models[c]);
       models[c].reset();
@@ -828,8 +722,11 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
       // refinement registered one by one.
       // Those of communities that left the merge are read again.
       std::vector<std::shared_ptr<const Reconstruction>> offered_models;
-      for (const int c : offers.offered_communities_of_part[part]) {
-        offered_models.push_back(left_model(c, models[c]));
+      const auto offered = offers.model_communities_of_part.find(part);
+      if (offered != offers.model_communities_of_part.end()) {
+        for (const int c : offered->second) {
+          offered_models.push_back(left_model(c, models[c]));
+        }
       }
       std::shared_ptr<Reconstruction> merged =
           MergePart(options,
@@ -837,7 +734,7 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
                     communities,
                     similarities,
                     averaging,
-                    offers.extra_image_names_of_part[part],
+                    extra_image_names_of_part[part],
                     registered_image_ids,
                     false_pairs,
                     view_graph,
@@ -1330,20 +1227,26 @@ bool CommunityMapperController::Merge() {
 
   PrintHeading1("Merging the communities and bundle adjustment");
   phase_timer.Restart();
+  std::vector<bool> has_model(models.size());
+  for (size_t c = 0; c < models.size(); ++c) {
+    has_model[c] = models[c] != nullptr;
+  }
   double refinement_seconds = 0.0;
-  std::vector<std::shared_ptr<Reconstruction>> merged_models = MergeParts(
-      options_,
-      communities,
-      similarities,
-      averaging,
-      PlanPartOffers(
-          communities, cross_edges, models, averaging, unconfirmed_communities),
-      set_aside_communities,
-      false_pairs,
-      view_graph,
-      model_paths,
-      &models,
-      &refinement_seconds);
+  std::vector<std::shared_ptr<Reconstruction>> merged_models =
+      MergeParts(options_,
+                 communities,
+                 similarities,
+                 averaging,
+                 PlanPartOffers(averaging.part_of_community,
+                                has_model,
+                                cross_edges,
+                                unconfirmed_communities),
+                 set_aside_communities,
+                 false_pairs,
+                 view_graph,
+                 model_paths,
+                 &models,
+                 &refinement_seconds);
 
   std::stable_sort(merged_models.begin(),
                    merged_models.end(),
