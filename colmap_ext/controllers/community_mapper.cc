@@ -543,6 +543,48 @@ SimilarityAveragingResult JudgeAndAverage(
   return averaging;
 }
 
+// The cross pairs of rejected transforms (community_alignment.h), but those
+// of the transforms the merge confirms (Options::confirm_rejected_links).
+std::unordered_set<image_pair_t> FalsePairsAfterTheMerge(
+    const CommunityMapperController::Options& options,
+    const CommunitySimilarities& community_similarities,
+    const SimilarityAveragingResult& averaging) {
+  std::unordered_set<image_pair_t> false_pairs =
+      community_similarities.false_pairs;
+  if (!options.confirm_rejected_links) {
+    return false_pairs;
+  }
+  for (const RejectedSimilarity& rejected :
+       community_similarities.rejected_similarities) {
+    const MergeResiduals residuals = ResidualsAgainstMerge(rejected, averaging);
+    if (!residuals.joined) {
+      continue;  // Not joined through other links: nothing to confirm it.
+    }
+    const bool confirmed = residuals.WithinBounds(options.similarity_averaging);
+    LOG(INFO) << StringPrintf(
+        "Communities %d-%d: the similarity the co-visibility check rejected "
+        "(%d inliers) against the merge: rotation %.3f deg, scale %.4f, "
+        "translation %.4f -> %s",
+        rejected.community1,
+        rejected.community2,
+        static_cast<int>(rejected.points1.size()),
+        residuals.rotation_deg,
+        residuals.log_scale,
+        residuals.relative_translation,
+        confirmed ? StringPrintf("confirmed: its %d image pairs stay in the "
+                                 "refinement",
+                                 static_cast<int>(rejected.pairs.size()))
+                        .c_str()
+                  : "still rejected");
+    if (confirmed) {
+      for (const image_pair_t pair_id : rejected.pairs) {
+        false_pairs.erase(pair_id);
+      }
+    }
+  }
+  return false_pairs;
+}
+
 // Communities that the averaging sent out of the merge lose their model
 // here (their images are offered to the merged models); returns those
 // whose model is not broken, which keep the images no merged model
@@ -1200,12 +1242,12 @@ bool CommunityMapperController::Merge() {
           options_.incremental_options.num_threads);
   const std::vector<RelativeSimilarity>& similarities =
       community_similarities.similarities;
-  const std::unordered_set<image_pair_t>& false_pairs =
-      community_similarities.false_pairs;
   summary_.num_estimated_similarities = static_cast<int>(similarities.size());
 
   const SimilarityAveragingResult averaging =
       JudgeAndAverage(options_, similarities, &summary_);
+  const std::unordered_set<image_pair_t> false_pairs =
+      FalsePairsAfterTheMerge(options_, community_similarities, averaging);
   if (!false_pairs.empty()) {
     LOG(INFO) << StringPrintf(
         "%d image pairs between communities support only rejected "

@@ -165,6 +165,14 @@ class CommunityMapperController : public BaseController {
     // The check that an alignment explains which images were matched.
     CovisibilityCheckOptions covisibility_check;
 
+    // A similarity that the co-visibility check rejected, between two
+    // communities that the averaging joins through other links, was right
+    // where it lies within the averaging's residual bounds of that placement
+    // (ResidualsAgainstMerge in community_alignment.h): its cross pairs stay
+    // in the refinement instead of being left out as false pairs, and close
+    // the loop there. False: every rejected similarity's pairs are left out.
+    bool confirm_rejected_links = true;
+
     // What makes a community's own model doubtful.
     CommunityJudgementOptions judgement;
 

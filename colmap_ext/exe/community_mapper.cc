@@ -666,6 +666,11 @@ void ParseCommand(int argc,
       "reject a similarity under which the image pairs it makes co-visible "
       "across the communities were verified less often than this fraction of "
       "the rate inside them (0: no check)");
+  add("confirm_rejected_links",
+      &mapper_options.confirm_rejected_links,
+      "a similarity the co-visibility check rejected whose inliers the merge "
+      "explains through other links (a cycle) was right: its image pairs "
+      "stay in the refinement (0: they are left out)");
   add("max_rotation_residual_deg",
       &mapper_options.similarity_averaging.max_rotation_residual_deg,
       "drop a pairwise similarity whose rotation residual after averaging "

@@ -1,10 +1,12 @@
 #include "colmap_ext/sfm/community_alignment.h"
 
+#include "colmap/math/math.h"
 #include "colmap/math/random.h"
 #include "colmap/util/logging.h"
 #include "colmap/util/misc.h"
 #include "colmap/util/threading.h"
 
+#include <algorithm>
 #include <mutex>
 #include <set>
 #include <string>
@@ -43,6 +45,7 @@ struct PairOutcome {
   bool has_similarity = false;
   RelativeSimilarity similarity;
   std::vector<image_pair_t> false_pairs;
+  std::vector<RejectedSimilarity> rejected;
   std::string log;
 };
 
@@ -101,6 +104,8 @@ PairOutcome EstimatePairSimilarity(
 
   CovisibilityCheck covisibility;
   std::set<std::pair<point3D_t, point3D_t>> rejected_inliers;
+  std::vector<std::set<std::pair<point3D_t, point3D_t>>>
+      rejected_inliers_by_transform;
   std::string rejected;
   int num_rejected = 0;
   const PairwiseSimilarity similarity = EstimatePairwiseSimilarity(
@@ -116,6 +121,16 @@ PairOutcome EstimatePairSimilarity(
         if (!covisibility.consistent) {
           rejected_inliers.insert(candidate.inlier_point3D_ids.begin(),
                                   candidate.inlier_point3D_ids.end());
+          rejected_inliers_by_transform.emplace_back(
+              candidate.inlier_point3D_ids.begin(),
+              candidate.inlier_point3D_ids.end());
+          RejectedSimilarity rejected_similarity;
+          rejected_similarity.community1 = community1;
+          rejected_similarity.community2 = community2;
+          rejected_similarity.second_from_first = candidate.second_from_first;
+          rejected_similarity.points1 = candidate.inlier_points1;
+          rejected_similarity.points2 = candidate.inlier_points2;
+          outcome.rejected.push_back(std::move(rejected_similarity));
           rejected += StringPrintf(
               " [%d inliers rejected: co-visible pairs verified %d of %d "
               "across, %d of %d inside]",
@@ -168,19 +183,32 @@ PairOutcome EstimatePairSimilarity(
   // The cross pairs whose linked points mostly supported rejected
   // transforms are false (on generated landmarks with identical towers,
   // leaving them in the refinement took the median camera error from 0.03
-  // to 0.19 m).
+  // to 0.19 m), each also recorded with the rejected transform it mostly
+  // supports (FractionExplainedByMerge).
   if (!rejected_inliers.empty()) {
     for (size_t k = num_shared_images; k < cross_pairs.size(); ++k) {
       const PointCorrespondences pair_points =
           FindPointCorrespondences(model1, model2, {cross_pairs[k]});
-      size_t num_rejected_points = 0;
-      for (size_t i = 0; i < pair_points.Size(); ++i) {
-        num_rejected_points += rejected_inliers.count(
-            {pair_points.point3D_ids1[i], pair_points.point3D_ids2[i]});
+      const image_pair_t pair_id = Database::ImagePairToPairId(
+          cross_pairs[k].image_id1, cross_pairs[k].image_id2);
+      const auto count_supporting =
+          [&pair_points](
+              const std::set<std::pair<point3D_t, point3D_t>>& inliers) {
+            size_t num_supporting = 0;
+            for (size_t i = 0; i < pair_points.Size(); ++i) {
+              num_supporting += inliers.count(
+                  {pair_points.point3D_ids1[i], pair_points.point3D_ids2[i]});
+            }
+            return num_supporting;
+          };
+      if (2 * count_supporting(rejected_inliers) > pair_points.Size()) {
+        outcome.false_pairs.push_back(pair_id);
       }
-      if (2 * num_rejected_points > pair_points.Size()) {
-        outcome.false_pairs.push_back(Database::ImagePairToPairId(
-            cross_pairs[k].image_id1, cross_pairs[k].image_id2));
+      for (size_t j = 0; j < outcome.rejected.size(); ++j) {
+        if (2 * count_supporting(rejected_inliers_by_transform[j]) >
+            pair_points.Size()) {
+          outcome.rejected[j].pairs.push_back(pair_id);
+        }
       }
     }
   }
@@ -285,11 +313,61 @@ CommunitySimilarities EstimateCommunitySimilarities(
     LOG(INFO) << outcome.log;
     result.false_pairs.insert(outcome.false_pairs.begin(),
                               outcome.false_pairs.end());
+    for (RejectedSimilarity& rejected : outcome.rejected) {
+      result.rejected_similarities.push_back(std::move(rejected));
+    }
     if (outcome.has_similarity) {
       result.similarities.push_back(std::move(outcome.similarity));
     }
   }
   return result;
+}
+
+bool MergeResiduals::WithinBounds(
+    const SimilarityAveragingOptions& bounds) const {
+  return joined && rotation_deg <= bounds.max_rotation_residual_deg &&
+         log_scale <= bounds.max_log_scale_residual &&
+         relative_translation <= bounds.max_relative_translation_residual;
+}
+
+MergeResiduals ResidualsAgainstMerge(
+    const RejectedSimilarity& rejected,
+    const SimilarityAveragingResult& averaging) {
+  const int c1 = rejected.community1;
+  const int c2 = rejected.community2;
+  THROW_CHECK_GE(std::min(c1, c2), 0);
+  THROW_CHECK_LT(std::max(c1, c2), averaging.part_of_community.size());
+  THROW_CHECK_EQ(rejected.points1.size(), rejected.points2.size());
+  MergeResiduals residuals;
+  if (averaging.excluded[c1] || averaging.excluded[c2] ||
+      averaging.part_of_community[c1] != averaging.part_of_community[c2] ||
+      rejected.points1.empty()) {
+    return residuals;
+  }
+  residuals.joined = true;
+  const Sim3d merged_second_from_first =
+      Inverse(averaging.world_from_community[c2]) *
+      averaging.world_from_community[c1];
+  residuals.rotation_deg =
+      RadToDeg(merged_second_from_first.rotation.angularDistance(
+          rejected.second_from_first.rotation));
+  residuals.log_scale = std::abs(std::log(rejected.second_from_first.scale /
+                                          merged_second_from_first.scale));
+  std::vector<double> offsets[3];
+  for (size_t i = 0; i < rejected.points1.size(); ++i) {
+    const Eigen::Vector3d offset =
+        merged_second_from_first * rejected.points1[i] - rejected.points2[i];
+    for (int k = 0; k < 3; ++k) {
+      offsets[k].push_back(offset(k));
+    }
+  }
+  Eigen::Vector3d median_offset;
+  for (int k = 0; k < 3; ++k) {
+    median_offset(k) = Median(offsets[k]);
+  }
+  residuals.relative_translation =
+      median_offset.norm() / MedianDistanceToMedian(rejected.points2);
+  return residuals;
 }
 
 }  // namespace colmap

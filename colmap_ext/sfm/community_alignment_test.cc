@@ -192,5 +192,103 @@ TEST_F(EstimateCommunitySimilaritiesTest, SameResultOnAnyNumberOfThreads) {
   }
 }
 
+// Communities 0 and 1 of one part, 1 placed relative to 0 by the averaging
+// as `merged_second_from_first`; community 2 in a part of its own.
+SimilarityAveragingResult TwoJoinedOneApart(
+    const Sim3d& merged_second_from_first) {
+  SimilarityAveragingResult averaging;
+  averaging.part_of_community = {0, 0, 1};
+  averaging.excluded = {false, false, false};
+  averaging.world_from_community = {
+      Sim3d(), Inverse(merged_second_from_first), Sim3d()};
+  return averaging;
+}
+
+// A rejected transform with inliers X2 = second_from_first(X1) on a patch of
+// points (spread about 1) around `center`.
+RejectedSimilarity Rejected(const int community1,
+                            const int community2,
+                            const Sim3d& second_from_first,
+                            const Eigen::Vector3d& center) {
+  RejectedSimilarity rejected;
+  rejected.community1 = community1;
+  rejected.community2 = community2;
+  rejected.second_from_first = second_from_first;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> uniform(-1, 1);
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Vector3d x1 =
+        center + Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng));
+    rejected.points1.push_back(x1);
+    rejected.points2.push_back(second_from_first * x1);
+  }
+  return rejected;
+}
+
+TEST(ResidualsAgainstMerge, RightTransformWithDriftIsConfirmed) {
+  // The averaging placed community 1 through other links, with a loop's
+  // drift: 1 degree and 1% of scale off the transform the check rejected.
+  const Sim3d right(
+      1.2,
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ())),
+      Eigen::Vector3d(1, 2, 3));
+  const Sim3d drifted(1.2 * 1.01,
+                      Eigen::Quaterniond(Eigen::AngleAxisd(
+                          0.5 + DegToRad(1.0), Eigen::Vector3d::UnitZ())),
+                      Eigen::Vector3d(1, 2, 3));
+  const MergeResiduals residuals =
+      ResidualsAgainstMerge(Rejected(0, 1, right, Eigen::Vector3d(2, 0, 0)),
+                            TwoJoinedOneApart(drifted));
+  EXPECT_TRUE(residuals.joined);
+  EXPECT_NEAR(residuals.rotation_deg, 1.0, 1e-6);
+  EXPECT_NEAR(residuals.log_scale, std::log(1.01), 1e-9);
+  EXPECT_LT(residuals.relative_translation, 0.1);
+  EXPECT_TRUE(residuals.WithinBounds(SimilarityAveragingOptions()));
+}
+
+TEST(ResidualsAgainstMerge, IdenticalStructureElsewhereIsNot) {
+  // Two identical facades 10 spreads apart, matched onto each other: the
+  // rejected transform has the right rotation and scale but stacks them.
+  const Sim3d right(
+      1.0, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
+  const Sim3d stacked(
+      1.0, Eigen::Quaterniond::Identity(), Eigen::Vector3d(10, 0, 0));
+  const MergeResiduals residuals =
+      ResidualsAgainstMerge(Rejected(0, 1, stacked, Eigen::Vector3d::Zero()),
+                            TwoJoinedOneApart(right));
+  EXPECT_TRUE(residuals.joined);
+  EXPECT_NEAR(residuals.rotation_deg, 0.0, 1e-6);
+  EXPECT_GT(residuals.relative_translation, 5);
+  EXPECT_FALSE(residuals.WithinBounds(SimilarityAveragingOptions()));
+}
+
+TEST(ResidualsAgainstMerge, FlippedFacadeIsNot) {
+  const Sim3d flipped(
+      1.0,
+      Eigen::Quaterniond(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY())),
+      Eigen::Vector3d::Zero());
+  const MergeResiduals residuals =
+      ResidualsAgainstMerge(Rejected(0, 1, flipped, Eigen::Vector3d::Zero()),
+                            TwoJoinedOneApart(Sim3d()));
+  EXPECT_NEAR(residuals.rotation_deg, 180.0, 1e-6);
+  EXPECT_FALSE(residuals.WithinBounds(SimilarityAveragingOptions()));
+}
+
+TEST(ResidualsAgainstMerge, NothingConfirmsALinkBetweenParts) {
+  // Communities 0 and 2 are joined by nothing else (two models): the
+  // rejected transform stays rejected, right or wrong.
+  const MergeResiduals residuals =
+      ResidualsAgainstMerge(Rejected(0, 2, Sim3d(), Eigen::Vector3d::Zero()),
+                            TwoJoinedOneApart(Sim3d()));
+  EXPECT_FALSE(residuals.joined);
+  EXPECT_FALSE(residuals.WithinBounds(SimilarityAveragingOptions()));
+  // Nor a link of a community that left the merge.
+  SimilarityAveragingResult averaging = TwoJoinedOneApart(Sim3d());
+  averaging.excluded[1] = true;
+  EXPECT_FALSE(ResidualsAgainstMerge(
+                   Rejected(0, 1, Sim3d(), Eigen::Vector3d::Zero()), averaging)
+                   .joined);
+}
+
 }  // namespace
 }  // namespace colmap
