@@ -565,9 +565,9 @@ std::unordered_set<image_pair_t> FalsePairsAfterTheMerge(
         "Communities %d-%d: the similarity the co-visibility check rejected "
         "(%d inliers) against the merge: rotation %.3f deg, scale %.4f, "
         "translation %.4f -> %s",
-        rejected.community1,
-        rejected.community2,
-        static_cast<int>(rejected.points1.size()),
+        rejected.similarity.community1,
+        rejected.similarity.community2,
+        static_cast<int>(rejected.similarity.points1.size()),
         residuals.rotation_deg,
         residuals.log_scale,
         residuals.relative_translation,

@@ -125,11 +125,14 @@ PairOutcome EstimatePairSimilarity(
               candidate.inlier_point3D_ids.begin(),
               candidate.inlier_point3D_ids.end());
           RejectedSimilarity rejected_similarity;
-          rejected_similarity.community1 = community1;
-          rejected_similarity.community2 = community2;
-          rejected_similarity.second_from_first = candidate.second_from_first;
-          rejected_similarity.points1 = candidate.inlier_points1;
-          rejected_similarity.points2 = candidate.inlier_points2;
+          RelativeSimilarity& similarity = rejected_similarity.similarity;
+          similarity.community1 = community1;
+          similarity.community2 = community2;
+          similarity.second_from_first = candidate.second_from_first;
+          similarity.points1 = candidate.inlier_points1;
+          similarity.points2 = candidate.inlier_points2;
+          similarity.point3D_ids = candidate.inlier_point3D_ids;
+          similarity.num_inliers = candidate.num_inliers;
           outcome.rejected.push_back(std::move(rejected_similarity));
           rejected += StringPrintf(
               " [%d inliers rejected: co-visible pairs verified %d of %d "
@@ -333,15 +336,16 @@ bool MergeResiduals::WithinBounds(
 MergeResiduals ResidualsAgainstMerge(
     const RejectedSimilarity& rejected,
     const SimilarityAveragingResult& averaging) {
-  const int c1 = rejected.community1;
-  const int c2 = rejected.community2;
+  const RelativeSimilarity& similarity = rejected.similarity;
+  const int c1 = similarity.community1;
+  const int c2 = similarity.community2;
   THROW_CHECK_GE(std::min(c1, c2), 0);
   THROW_CHECK_LT(std::max(c1, c2), averaging.part_of_community.size());
-  THROW_CHECK_EQ(rejected.points1.size(), rejected.points2.size());
+  THROW_CHECK_EQ(similarity.points1.size(), similarity.points2.size());
   MergeResiduals residuals;
   if (averaging.excluded[c1] || averaging.excluded[c2] ||
       averaging.part_of_community[c1] != averaging.part_of_community[c2] ||
-      rejected.points1.empty()) {
+      similarity.points1.empty()) {
     return residuals;
   }
   residuals.joined = true;
@@ -350,13 +354,14 @@ MergeResiduals ResidualsAgainstMerge(
       averaging.world_from_community[c1];
   residuals.rotation_deg =
       RadToDeg(merged_second_from_first.rotation.angularDistance(
-          rejected.second_from_first.rotation));
-  residuals.log_scale = std::abs(std::log(rejected.second_from_first.scale /
+          similarity.second_from_first.rotation));
+  residuals.log_scale = std::abs(std::log(similarity.second_from_first.scale /
                                           merged_second_from_first.scale));
   std::vector<double> offsets[3];
-  for (size_t i = 0; i < rejected.points1.size(); ++i) {
+  for (size_t i = 0; i < similarity.points1.size(); ++i) {
     const Eigen::Vector3d offset =
-        merged_second_from_first * rejected.points1[i] - rejected.points2[i];
+        merged_second_from_first * similarity.points1[i] -
+        similarity.points2[i];
     for (int k = 0; k < 3; ++k) {
       offsets[k].push_back(offset(k));
     }
@@ -366,7 +371,7 @@ MergeResiduals ResidualsAgainstMerge(
     median_offset(k) = Median(offsets[k]);
   }
   residuals.relative_translation =
-      median_offset.norm() / MedianDistanceToMedian(rejected.points2);
+      median_offset.norm() / MedianDistanceToMedian(similarity.points2);
   return residuals;
 }
 

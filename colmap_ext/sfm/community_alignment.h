@@ -12,7 +12,10 @@
 // from its outliers, up to PairwiseSimilarityOptions::max_num_hypotheses.
 // The cross pairs whose matches mostly supported rejected transforms (e.g.
 // matches between two identical facades) are reported as false pairs: the
-// merged model's refinement must not re-introduce them as tracks.
+// merged model's refinement must not re-introduce them as tracks. The
+// rejected transforms are reported too, each with its pairs, so that the
+// merge can confirm one that a cycle of other links places alike
+// (ResidualsAgainstMerge, below).
 
 #pragma once
 
@@ -44,12 +47,9 @@ CrossEdges GroupCrossEdges(
 
 // A transform that the co-visibility check rejected.
 struct RejectedSimilarity {
-  int community1 = -1;
-  int community2 = -1;
-  // X2 = s R X1 + t, and its inlier correspondences (X1, X2).
-  Sim3d second_from_first;
-  std::vector<Eigen::Vector3d> points1;
-  std::vector<Eigen::Vector3d> points2;
+  // The communities, the transform and its inliers (the shared images are
+  // not checked for it).
+  RelativeSimilarity similarity;
   // The cross pairs whose matches mostly support it.
   std::vector<image_pair_t> pairs;
 };

@@ -211,16 +211,17 @@ RejectedSimilarity Rejected(const int community1,
                             const Sim3d& second_from_first,
                             const Eigen::Vector3d& center) {
   RejectedSimilarity rejected;
-  rejected.community1 = community1;
-  rejected.community2 = community2;
-  rejected.second_from_first = second_from_first;
+  RelativeSimilarity& similarity = rejected.similarity;
+  similarity.community1 = community1;
+  similarity.community2 = community2;
+  similarity.second_from_first = second_from_first;
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> uniform(-1, 1);
   for (int i = 0; i < 200; ++i) {
     const Eigen::Vector3d x1 =
         center + Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng));
-    rejected.points1.push_back(x1);
-    rejected.points2.push_back(second_from_first * x1);
+    similarity.points1.push_back(x1);
+    similarity.points2.push_back(second_from_first * x1);
   }
   return rejected;
 }
