@@ -49,6 +49,22 @@ struct PairOutcome {
   std::string log;
 };
 
+// A transform estimated between communities 1 and 2 and its inliers, as
+// the averaging takes it (the shared images not yet checked).
+RelativeSimilarity ToRelativeSimilarity(const int community1,
+                                        const int community2,
+                                        const PairwiseSimilarity& estimate) {
+  RelativeSimilarity relative;
+  relative.community1 = community1;
+  relative.community2 = community2;
+  relative.second_from_first = estimate.second_from_first;
+  relative.points1 = estimate.inlier_points1;
+  relative.points2 = estimate.inlier_points2;
+  relative.point3D_ids = estimate.inlier_point3D_ids;
+  relative.num_inliers = estimate.num_inliers;
+  return relative;
+}
+
 // The similarity of communities 1 and 2 from the images both models
 // registered and the matches of their cross edges (read from `database`
 // under `database_mutex`). RANSAC draws from a seed of the pair's own, so
@@ -104,8 +120,6 @@ PairOutcome EstimatePairSimilarity(
 
   CovisibilityCheck covisibility;
   std::set<std::pair<point3D_t, point3D_t>> rejected_inliers;
-  std::vector<std::set<std::pair<point3D_t, point3D_t>>>
-      rejected_inliers_by_transform;
   std::string rejected;
   int num_rejected = 0;
   const PairwiseSimilarity similarity = EstimatePairwiseSimilarity(
@@ -121,18 +135,9 @@ PairOutcome EstimatePairSimilarity(
         if (!covisibility.consistent) {
           rejected_inliers.insert(candidate.inlier_point3D_ids.begin(),
                                   candidate.inlier_point3D_ids.end());
-          rejected_inliers_by_transform.emplace_back(
-              candidate.inlier_point3D_ids.begin(),
-              candidate.inlier_point3D_ids.end());
           RejectedSimilarity rejected_similarity;
-          RelativeSimilarity& similarity = rejected_similarity.similarity;
-          similarity.community1 = community1;
-          similarity.community2 = community2;
-          similarity.second_from_first = candidate.second_from_first;
-          similarity.points1 = candidate.inlier_points1;
-          similarity.points2 = candidate.inlier_points2;
-          similarity.point3D_ids = candidate.inlier_point3D_ids;
-          similarity.num_inliers = candidate.num_inliers;
+          rejected_similarity.similarity =
+              ToRelativeSimilarity(community1, community2, candidate);
           outcome.rejected.push_back(std::move(rejected_similarity));
           rejected += StringPrintf(
               " [%d inliers rejected: co-visible pairs verified %d of %d "
@@ -189,6 +194,13 @@ PairOutcome EstimatePairSimilarity(
   // to 0.19 m), each also recorded with the rejected transform it mostly
   // supports (FractionExplainedByMerge).
   if (!rejected_inliers.empty()) {
+    std::vector<std::set<std::pair<point3D_t, point3D_t>>>
+        rejected_inliers_by_transform;
+    for (const RejectedSimilarity& rejected_similarity : outcome.rejected) {
+      rejected_inliers_by_transform.emplace_back(
+          rejected_similarity.similarity.point3D_ids.begin(),
+          rejected_similarity.similarity.point3D_ids.end());
+    }
     for (size_t k = num_shared_images; k < cross_pairs.size(); ++k) {
       const PointCorrespondences pair_points =
           FindPointCorrespondences(model1, model2, {cross_pairs[k]});
@@ -219,13 +231,7 @@ PairOutcome EstimatePairSimilarity(
     return outcome;
   }
   RelativeSimilarity& relative = outcome.similarity;
-  relative.community1 = community1;
-  relative.community2 = community2;
-  relative.second_from_first = similarity.second_from_first;
-  relative.points1 = similarity.inlier_points1;
-  relative.points2 = similarity.inlier_points2;
-  relative.point3D_ids = similarity.inlier_point3D_ids;
-  relative.num_inliers = similarity.num_inliers;
+  relative = ToRelativeSimilarity(community1, community2, similarity);
   relative.num_shared_images = agreement.num_shared_images;
   relative.num_agreeing_shared_images = agreement.num_agreeing;
   relative.max_shared_image_rotation_deg = agreement.max_rotation_deg;
