@@ -137,6 +137,47 @@ TEST_F(EstimateCommunitySimilaritiesTest, RecoversTheRelativeSimilarity) {
   }
 }
 
+TEST_F(EstimateCommunitySimilaritiesTest, ReportsRejectedTransformsWithPairs) {
+  // A check no alignment can pass (twice the internal rate asked across,
+  // on any number of predicted pairs)
+  // rejects the right transform: it is reported with the cross pairs that
+  // support it, which are false pairs until the merge confirms it.
+  CovisibilityCheckOptions strict;
+  strict.min_rate_ratio = 2.0;
+  strict.min_num_predicted_pairs = 1;
+  PairwiseSimilarityOptions one_hypothesis;
+  one_hypothesis.max_num_hypotheses = 1;
+  const CommunitySimilarities result = EstimateCommunitySimilarities(
+      *database_,
+      view_graph_,
+      GroupCrossEdges(view_graph_, community_of_image_),
+      {CommunityModel(0), CommunityModel(1)},
+      one_hypothesis,
+      strict);
+  EXPECT_TRUE(result.similarities.empty());
+  ASSERT_EQ(result.rejected_similarities.size(), 1);
+  const RejectedSimilarity& rejected = result.rejected_similarities[0];
+  const Sim3d expected =
+      world_to_community_[1] * Inverse(world_to_community_[0]);
+  EXPECT_LT(rejected.similarity.second_from_first.rotation.angularDistance(
+                expected.rotation),
+            1e-2);
+  EXPECT_GE(rejected.similarity.points1.size(),
+            static_cast<size_t>(one_hypothesis.min_num_inliers));
+  ASSERT_FALSE(rejected.pairs.empty());
+  for (const image_pair_t pair_id : rejected.pairs) {
+    EXPECT_EQ(result.false_pairs.count(pair_id), 1);
+  }
+  // Placed by the merge as the truth places them, it is confirmed.
+  SimilarityAveragingResult averaging;
+  averaging.part_of_community = {0, 0};
+  averaging.excluded = {false, false};
+  averaging.world_from_community = {Inverse(world_to_community_[0]),
+                                    Inverse(world_to_community_[1])};
+  EXPECT_TRUE(ResidualsAgainstMerge(rejected, averaging)
+                  .WithinBounds(SimilarityAveragingOptions()));
+}
+
 TEST_F(EstimateCommunitySimilaritiesTest, CommunityWithoutModelHasNone) {
   const CommunitySimilarities result = EstimateCommunitySimilarities(
       *database_,
