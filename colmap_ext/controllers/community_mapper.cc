@@ -568,9 +568,9 @@ std::unordered_set<image_pair_t> FalsePairsAfterTheMerge(
         rejected.similarity.community1,
         rejected.similarity.community2,
         static_cast<int>(rejected.similarity.points1.size()),
-        residuals.rotation_deg,
-        residuals.log_scale,
-        residuals.relative_translation,
+        residuals.report.rotation_residual_deg,
+        residuals.report.log_scale_residual,
+        residuals.report.relative_translation_residual,
         confirmed ? StringPrintf("confirmed: its %d image pairs stay in the "
                                  "refinement",
                                  static_cast<int>(rejected.pairs.size()))

@@ -1,6 +1,5 @@
 #include "colmap_ext/sfm/community_alignment.h"
 
-#include "colmap/math/math.h"
 #include "colmap/math/random.h"
 #include "colmap/util/logging.h"
 #include "colmap/util/misc.h"
@@ -119,7 +118,6 @@ PairOutcome EstimatePairSimilarity(
       FindPointCorrespondences(model1, model2, cross_pairs);
 
   CovisibilityCheck covisibility;
-  std::set<std::pair<point3D_t, point3D_t>> rejected_inliers;
   std::string rejected;
   int num_rejected = 0;
   const PairwiseSimilarity similarity = EstimatePairwiseSimilarity(
@@ -133,8 +131,6 @@ PairOutcome EstimatePairSimilarity(
                                          is_compared_pair,
                                          covisibility_options);
         if (!covisibility.consistent) {
-          rejected_inliers.insert(candidate.inlier_point3D_ids.begin(),
-                                  candidate.inlier_point3D_ids.end());
           RejectedSimilarity rejected_similarity;
           rejected_similarity.similarity =
               ToRelativeSimilarity(community1, community2, candidate);
@@ -192,8 +188,11 @@ PairOutcome EstimatePairSimilarity(
   // transforms are false (on generated landmarks with identical towers,
   // leaving them in the refinement took the median camera error from 0.03
   // to 0.19 m), each also recorded with the rejected transform it mostly
-  // supports (FractionExplainedByMerge).
-  if (!rejected_inliers.empty()) {
+  // supports (ResidualsAgainstMerge). Each rejected transform is estimated
+  // from the outliers of those before it (EstimatePairwiseSimilarity), so
+  // their inliers are disjoint and a pair's points supporting any of them
+  // are the sum of those supporting each.
+  if (!outcome.rejected.empty()) {
     std::vector<std::set<std::pair<point3D_t, point3D_t>>>
         rejected_inliers_by_transform;
     for (const RejectedSimilarity& rejected_similarity : outcome.rejected) {
@@ -206,24 +205,20 @@ PairOutcome EstimatePairSimilarity(
           FindPointCorrespondences(model1, model2, {cross_pairs[k]});
       const image_pair_t pair_id = Database::ImagePairToPairId(
           cross_pairs[k].image_id1, cross_pairs[k].image_id2);
-      const auto count_supporting =
-          [&pair_points](
-              const std::set<std::pair<point3D_t, point3D_t>>& inliers) {
-            size_t num_supporting = 0;
-            for (size_t i = 0; i < pair_points.Size(); ++i) {
-              num_supporting += inliers.count(
-                  {pair_points.point3D_ids1[i], pair_points.point3D_ids2[i]});
-            }
-            return num_supporting;
-          };
-      if (2 * count_supporting(rejected_inliers) > pair_points.Size()) {
-        outcome.false_pairs.push_back(pair_id);
-      }
+      size_t num_rejected_points = 0;
       for (size_t j = 0; j < outcome.rejected.size(); ++j) {
-        if (2 * count_supporting(rejected_inliers_by_transform[j]) >
-            pair_points.Size()) {
+        size_t num_supporting = 0;
+        for (size_t i = 0; i < pair_points.Size(); ++i) {
+          num_supporting += rejected_inliers_by_transform[j].count(
+              {pair_points.point3D_ids1[i], pair_points.point3D_ids2[i]});
+        }
+        if (2 * num_supporting > pair_points.Size()) {
           outcome.rejected[j].pairs.push_back(pair_id);
         }
+        num_rejected_points += num_supporting;
+      }
+      if (2 * num_rejected_points > pair_points.Size()) {
+        outcome.false_pairs.push_back(pair_id);
       }
     }
   }
@@ -334,50 +329,24 @@ CommunitySimilarities EstimateCommunitySimilarities(
 
 bool MergeResiduals::WithinBounds(
     const SimilarityAveragingOptions& bounds) const {
-  return joined && rotation_deg <= bounds.max_rotation_residual_deg &&
-         log_scale <= bounds.max_log_scale_residual &&
-         relative_translation <= bounds.max_relative_translation_residual;
+  return joined && EdgeWithinBounds(report, bounds);
 }
 
 MergeResiduals ResidualsAgainstMerge(
     const RejectedSimilarity& rejected,
     const SimilarityAveragingResult& averaging) {
-  const RelativeSimilarity& similarity = rejected.similarity;
-  const int c1 = similarity.community1;
-  const int c2 = similarity.community2;
+  const int c1 = rejected.similarity.community1;
+  const int c2 = rejected.similarity.community2;
   THROW_CHECK_GE(std::min(c1, c2), 0);
   THROW_CHECK_LT(std::max(c1, c2), averaging.part_of_community.size());
-  THROW_CHECK_EQ(similarity.points1.size(), similarity.points2.size());
   MergeResiduals residuals;
   if (averaging.excluded[c1] || averaging.excluded[c2] ||
-      averaging.part_of_community[c1] != averaging.part_of_community[c2] ||
-      similarity.points1.empty()) {
+      averaging.part_of_community[c1] != averaging.part_of_community[c2]) {
     return residuals;
   }
   residuals.joined = true;
-  const Sim3d merged_second_from_first =
-      Inverse(averaging.world_from_community[c2]) *
-      averaging.world_from_community[c1];
-  residuals.rotation_deg =
-      RadToDeg(merged_second_from_first.rotation.angularDistance(
-          similarity.second_from_first.rotation));
-  residuals.log_scale = std::abs(std::log(similarity.second_from_first.scale /
-                                          merged_second_from_first.scale));
-  std::vector<double> offsets[3];
-  for (size_t i = 0; i < similarity.points1.size(); ++i) {
-    const Eigen::Vector3d offset =
-        merged_second_from_first * similarity.points1[i] -
-        similarity.points2[i];
-    for (int k = 0; k < 3; ++k) {
-      offsets[k].push_back(offset(k));
-    }
-  }
-  Eigen::Vector3d median_offset;
-  for (int k = 0; k < 3; ++k) {
-    median_offset(k) = Median(offsets[k]);
-  }
-  residuals.relative_translation =
-      median_offset.norm() / MedianDistanceToMedian(similarity.points2);
+  residuals.report =
+      ComputeEdgeResiduals(rejected.similarity, averaging.world_from_community);
   return residuals;
 }
 

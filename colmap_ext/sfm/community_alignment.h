@@ -93,20 +93,15 @@ CommunitySimilarities EstimateCommunitySimilarities(
 // distance between them, and communities joined by nothing else are in
 // different parts. A confirmed transform's cross pairs are no false pairs:
 // they close the loop in the refinement. (South Building's link at 512 px
-// was 1.8 degrees, 2.7% in scale and 0.198 spreads off, against bounds of
+// was 1.8 degrees, 2.7% in scale and 0.199 spreads off, against bounds of
 // 5, 0.2 and 0.2: a loop that drifted more stays open, as before.)
 struct MergeResiduals {
   // Whether the averaging put both communities in one part (neither left
-  // the merge); the residuals are only set then.
+  // the merge); `report` is only set then.
   bool joined = false;
-  // Between the rejected transform and the averaged placement of community 2
-  // relative to community 1: the rotation (degrees), |log| of the scale
-  // ratio, and the median offset of the transform's inliers X2 from its X1
-  // under that placement, per coordinate, relative to their spread
-  // (MedianDistanceToMedian of X2).
-  double rotation_deg = 0.0;
-  double log_scale = 0.0;
-  double relative_translation = 0.0;
+  // The rejected transform's residuals under the averaged placement
+  // (ComputeEdgeResiduals, similarity_averaging.h).
+  SimilarityAveragingResult::EdgeReport report;
 
   bool WithinBounds(const SimilarityAveragingOptions& bounds) const;
 };

@@ -282,9 +282,9 @@ TEST(ResidualsAgainstMerge, RightTransformWithDriftIsConfirmed) {
       ResidualsAgainstMerge(Rejected(0, 1, right, Eigen::Vector3d(2, 0, 0)),
                             TwoJoinedOneApart(drifted));
   EXPECT_TRUE(residuals.joined);
-  EXPECT_NEAR(residuals.rotation_deg, 1.0, 1e-6);
-  EXPECT_NEAR(residuals.log_scale, std::log(1.01), 1e-9);
-  EXPECT_LT(residuals.relative_translation, 0.1);
+  EXPECT_NEAR(residuals.report.rotation_residual_deg, 1.0, 1e-6);
+  EXPECT_NEAR(residuals.report.log_scale_residual, std::log(1.01), 1e-9);
+  EXPECT_LT(residuals.report.relative_translation_residual, 0.1);
   EXPECT_TRUE(residuals.WithinBounds(SimilarityAveragingOptions()));
 }
 
@@ -299,8 +299,8 @@ TEST(ResidualsAgainstMerge, IdenticalStructureElsewhereIsNot) {
       ResidualsAgainstMerge(Rejected(0, 1, stacked, Eigen::Vector3d::Zero()),
                             TwoJoinedOneApart(right));
   EXPECT_TRUE(residuals.joined);
-  EXPECT_NEAR(residuals.rotation_deg, 0.0, 1e-6);
-  EXPECT_GT(residuals.relative_translation, 5);
+  EXPECT_NEAR(residuals.report.rotation_residual_deg, 0.0, 1e-6);
+  EXPECT_GT(residuals.report.relative_translation_residual, 5);
   EXPECT_FALSE(residuals.WithinBounds(SimilarityAveragingOptions()));
 }
 
@@ -312,7 +312,7 @@ TEST(ResidualsAgainstMerge, FlippedFacadeIsNot) {
   const MergeResiduals residuals =
       ResidualsAgainstMerge(Rejected(0, 1, flipped, Eigen::Vector3d::Zero()),
                             TwoJoinedOneApart(Sim3d()));
-  EXPECT_NEAR(residuals.rotation_deg, 180.0, 1e-6);
+  EXPECT_NEAR(residuals.report.rotation_residual_deg, 180.0, 1e-6);
   EXPECT_FALSE(residuals.WithinBounds(SimilarityAveragingOptions()));
 }
 

@@ -228,7 +228,9 @@ bool AveragePart(const std::vector<int>& nodes,
   return true;
 }
 
-SimilarityAveragingResult::EdgeReport ComputeResiduals(
+}  // namespace
+
+SimilarityAveragingResult::EdgeReport ComputeEdgeResiduals(
     const RelativeSimilarity& edge,
     const std::vector<Sim3d>& world_from_community) {
   const Sim3d& world_from_first = world_from_community[edge.community1];
@@ -254,6 +256,17 @@ SimilarityAveragingResult::EdgeReport ComputeResiduals(
   return report;
 }
 
+bool EdgeWithinBounds(const SimilarityAveragingResult::EdgeReport& report,
+                      const SimilarityAveragingOptions& options) {
+  // Written so that a non-finite residual counts as too large.
+  return report.rotation_residual_deg <= options.max_rotation_residual_deg &&
+         report.log_scale_residual <= options.max_log_scale_residual &&
+         report.relative_translation_residual <=
+             options.max_relative_translation_residual;
+}
+
+namespace {
+
 // Images both communities registered that the two models place elsewhere
 // under the edge's similarity.
 int NumSharedImagesPlacedElsewhere(const RelativeSimilarity& edge) {
@@ -276,15 +289,6 @@ bool SharedImagesConfirm(const RelativeSimilarity& edge,
                          const int max_num_disagreeing) {
   return edge.num_agreeing_shared_images >= min_num_agreeing &&
          NumSharedImagesPlacedElsewhere(edge) <= max_num_disagreeing;
-}
-
-bool WithinBounds(const SimilarityAveragingResult::EdgeReport& report,
-                  const SimilarityAveragingOptions& options) {
-  // Written so that a non-finite residual counts as too large.
-  return report.rotation_residual_deg <= options.max_rotation_residual_deg &&
-         report.log_scale_residual <= options.max_log_scale_residual &&
-         report.relative_translation_residual <=
-             options.max_relative_translation_residual;
 }
 
 // How far a finite report is beyond the bounds: its largest residual as a
@@ -315,7 +319,8 @@ bool SpreadCycleDrift(const std::vector<AveragedCommunity>& communities,
   std::vector<const RelativeSimilarity*> confirmed_edges;
   bool unconfirmed = false;
   for (const RelativeSimilarity* edge : edges) {
-    if (WithinBounds(ComputeResiduals(*edge, *world_from_community), options)) {
+    if (EdgeWithinBounds(ComputeEdgeResiduals(*edge, *world_from_community),
+                         options)) {
       continue;
     }
     const bool confirmed =
@@ -357,7 +362,7 @@ bool SpreadCycleDrift(const std::vector<AveragedCommunity>& communities,
     return false;
   }
   for (const RelativeSimilarity* edge : edges) {
-    if (!WithinBounds(ComputeResiduals(*edge, spread), options)) {
+    if (!EdgeWithinBounds(ComputeEdgeResiduals(*edge, spread), options)) {
       return false;
     }
   }
@@ -564,12 +569,12 @@ SimilarityAveragingResult AverageSimilarities(
       if (!result.edges[e].kept) {
         continue;
       }
-      result.edges[e] = ComputeResiduals(relative_similarities[e],
-                                         result.world_from_community);
+      result.edges[e] = ComputeEdgeResiduals(relative_similarities[e],
+                                             result.world_from_community);
       result.edges[e].kept = true;
       // A non-finite residual counts as too large; such an edge is rejected
       // in any round.
-      const bool within_bounds = WithinBounds(result.edges[e], options);
+      const bool within_bounds = EdgeWithinBounds(result.edges[e], options);
       const bool finite =
           std::isfinite(result.edges[e].rotation_residual_deg) &&
           std::isfinite(result.edges[e].log_scale_residual) &&

@@ -239,6 +239,19 @@ struct SimilarityAveragingResult {
   int NumParts() const;
 };
 
+// The residuals of `edge` under the placement `world_from_community`
+// (indexed by community), as the averaging judges its edges: rotation,
+// scale ratio, and translation relative to the spread of the edge's
+// correspondences (see SimilarityAveragingOptions).
+SimilarityAveragingResult::EdgeReport ComputeEdgeResiduals(
+    const RelativeSimilarity& edge,
+    const std::vector<Sim3d>& world_from_community);
+
+// Whether every residual of `report` is within the bounds of `options` (a
+// non-finite one is not).
+bool EdgeWithinBounds(const SimilarityAveragingResult::EdgeReport& report,
+                      const SimilarityAveragingOptions& options);
+
 // Averages the relative similarities of communities 0..N-1.
 SimilarityAveragingResult AverageSimilarities(
     const std::vector<AveragedCommunity>& communities,
