@@ -549,6 +549,8 @@ std::unordered_set<image_pair_t> FalsePairsAfterTheMerge(
     const CommunityMapperController::Options& options,
     const CommunitySimilarities& community_similarities,
     const SimilarityAveragingResult& averaging) {
+  const std::vector<RelativeSimilarity>& similarities =
+      community_similarities.similarities;
   std::unordered_set<image_pair_t> false_pairs =
       community_similarities.false_pairs;
   if (!options.confirm_rejected_links) {
@@ -556,21 +558,26 @@ std::unordered_set<image_pair_t> FalsePairsAfterTheMerge(
   }
   for (const RejectedSimilarity& rejected :
        community_similarities.rejected_similarities) {
-    const MergeResiduals residuals = ResidualsAgainstMerge(rejected, averaging);
+    const MergeResiduals residuals =
+        ResidualsAgainstMerge(rejected, similarities, averaging);
     if (!residuals.joined) {
       continue;  // Not joined through other links: nothing to confirm it.
     }
-    const bool confirmed = residuals.WithinBounds(options.similarity_averaging);
+    const bool confirmed = residuals.WithinBounds(
+        options.similarity_averaging, options.rejected_link_max_drift_factor);
     LOG(INFO) << StringPrintf(
         "Communities %d-%d: the similarity the co-visibility check rejected "
         "(%d inliers) against the merge: rotation %.3f deg, scale %.4f, "
-        "translation %.4f -> %s",
+        "translation %.4f (links between them: resistance %.2f, bounds times "
+        "%.2f) -> %s",
         rejected.similarity.community1,
         rejected.similarity.community2,
         static_cast<int>(rejected.similarity.points1.size()),
         residuals.report.rotation_residual_deg,
         residuals.report.log_scale_residual,
         residuals.report.relative_translation_residual,
+        residuals.path_resistance,
+        residuals.DriftFactor(options.rejected_link_max_drift_factor),
         confirmed ? StringPrintf("confirmed: its %d image pairs stay in the "
                                  "refinement",
                                  static_cast<int>(rejected.pairs.size()))
@@ -875,6 +882,7 @@ bool CommunityMapperController::Options::Check() const {
                community_ba_global_ratio > 1);
   CHECK_OPTION(pairwise_similarity.Check());
   CHECK_OPTION(covisibility_check.Check());
+  CHECK_OPTION_GE(rejected_link_max_drift_factor, 1.0);
   CHECK_OPTION(similarity_averaging.Check());
   CHECK_OPTION(refinement.Check());
   CHECK_OPTION(pose_graph.Check());

@@ -173,6 +173,13 @@ class CommunityMapperController : public BaseController {
     // the loop there. False: every rejected similarity's pairs are left out.
     bool confirm_rejected_links = true;
 
+    // The bounds that confirm a rejected similarity grow with the drift the
+    // links between its communities may have accumulated: times the square
+    // root of the number of links on the path (their effective resistance),
+    // at most this factor (1: the averaging's bounds alone). Two identical
+    // facades matched onto each other lie several spreads apart.
+    double rejected_link_max_drift_factor = 2.0;
+
     // What makes a community's own model doubtful.
     CommunityJudgementOptions judgement;
 

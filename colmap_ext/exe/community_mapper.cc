@@ -671,6 +671,12 @@ void ParseCommand(int argc,
       "a similarity the co-visibility check rejected whose inliers the merge "
       "explains through other links (a cycle) was right: its image pairs "
       "stay in the refinement (0: they are left out)");
+  add("rejected_link_max_drift_factor",
+      &mapper_options.rejected_link_max_drift_factor,
+      "the residual bounds that confirm a rejected similarity grow as the "
+      "square root of the number of links that join its communities (the "
+      "drift they may have accumulated), at most by this factor (1: the "
+      "bounds alone)");
   add("max_rotation_residual_deg",
       &mapper_options.similarity_averaging.max_rotation_residual_deg,
       "drop a pairwise similarity whose rotation residual after averaging "

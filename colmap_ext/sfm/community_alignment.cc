@@ -6,9 +6,13 @@
 #include "colmap/util/threading.h"
 
 #include <algorithm>
+#include <cmath>
 #include <mutex>
 #include <set>
 #include <string>
+
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
 
 namespace colmap {
 
@@ -327,26 +331,92 @@ CommunitySimilarities EstimateCommunitySimilarities(
   return result;
 }
 
-bool MergeResiduals::WithinBounds(
-    const SimilarityAveragingOptions& bounds) const {
-  return joined && EdgeWithinBounds(report, bounds);
+namespace {
+
+// The effective resistance between communities c1 and c2 in the graph of
+// the kept edges, each a unit resistance (c1 and c2 must be connected by
+// them): with c2 grounded, the potential at c1 when a unit current enters
+// there, L x = e_c1.
+double EffectiveResistance(const std::vector<RelativeSimilarity>& similarities,
+                           const SimilarityAveragingResult& averaging,
+                           const int c1,
+                           const int c2) {
+  const int part = averaging.part_of_community[c1];
+  std::map<int, int> index;  // Community -> row, c2 grounded (no row).
+  for (size_t c = 0; c < averaging.part_of_community.size(); ++c) {
+    if (averaging.part_of_community[c] == part && !averaging.excluded[c] &&
+        static_cast<int>(c) != c2) {
+      index.emplace(static_cast<int>(c), static_cast<int>(index.size()));
+    }
+  }
+  std::vector<Eigen::Triplet<double>> triplets;
+  for (size_t e = 0; e < similarities.size(); ++e) {
+    if (!averaging.edges[e].kept) {
+      continue;
+    }
+    const auto it1 = index.find(similarities[e].community1);
+    const auto it2 = index.find(similarities[e].community2);
+    if (it1 != index.end()) {
+      triplets.emplace_back(it1->second, it1->second, 1.0);
+    }
+    if (it2 != index.end()) {
+      triplets.emplace_back(it2->second, it2->second, 1.0);
+    }
+    if (it1 != index.end() && it2 != index.end()) {
+      triplets.emplace_back(it1->second, it2->second, -1.0);
+      triplets.emplace_back(it2->second, it1->second, -1.0);
+    }
+  }
+  const int n = static_cast<int>(index.size());
+  Eigen::SparseMatrix<double> laplacian(n, n);
+  laplacian.setFromTriplets(triplets.begin(), triplets.end());
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(laplacian);
+  THROW_CHECK(solver.info() == Eigen::Success);
+  Eigen::VectorXd current = Eigen::VectorXd::Zero(n);
+  current(index.at(c1)) = 1.0;
+  const Eigen::VectorXd potential = solver.solve(current);
+  return potential(index.at(c1));
+}
+
+}  // namespace
+
+double MergeResiduals::DriftFactor(const double max_drift_factor) const {
+  return std::min(std::max(1.0, std::sqrt(path_resistance)),
+                  std::max(1.0, max_drift_factor));
+}
+
+bool MergeResiduals::WithinBounds(const SimilarityAveragingOptions& bounds,
+                                  const double max_drift_factor) const {
+  if (!joined) {
+    return false;
+  }
+  const double factor = DriftFactor(max_drift_factor);
+  SimilarityAveragingOptions scaled = bounds;
+  scaled.max_rotation_residual_deg *= factor;
+  scaled.max_log_scale_residual *= factor;
+  scaled.max_relative_translation_residual *= factor;
+  return EdgeWithinBounds(report, scaled);
 }
 
 MergeResiduals ResidualsAgainstMerge(
     const RejectedSimilarity& rejected,
+    const std::vector<RelativeSimilarity>& similarities,
     const SimilarityAveragingResult& averaging) {
   const int c1 = rejected.similarity.community1;
   const int c2 = rejected.similarity.community2;
   THROW_CHECK_GE(std::min(c1, c2), 0);
   THROW_CHECK_LT(std::max(c1, c2), averaging.part_of_community.size());
+  THROW_CHECK_EQ(similarities.size(), averaging.edges.size());
   MergeResiduals residuals;
-  if (averaging.excluded[c1] || averaging.excluded[c2] ||
+  if (c1 == c2 || averaging.excluded[c1] || averaging.excluded[c2] ||
       averaging.part_of_community[c1] != averaging.part_of_community[c2]) {
     return residuals;
   }
   residuals.joined = true;
   residuals.report =
       ComputeEdgeResiduals(rejected.similarity, averaging.world_from_community);
+  residuals.path_resistance =
+      EffectiveResistance(similarities, averaging, c1, c2);
   return residuals;
 }
 

@@ -88,26 +88,45 @@ CommunitySimilarities EstimateCommunitySimilarities(
 // Where the two communities are joined through other kept links (a cycle),
 // the averaging places them without that link. Measured against that
 // placement as the averaging measures its kept links (its residual bounds,
-// similarity_averaging.h), a right transform differs by the loop's drift
-// alone; two identical facades matched onto each other differ by the
-// distance between them, and communities joined by nothing else are in
-// different parts. A confirmed transform's cross pairs are no false pairs:
-// they close the loop in the refinement. (South Building's link at 512 px
-// was 1.8 degrees, 2.7% in scale and 0.199 spreads off, against bounds of
-// 5, 0.2 and 0.2: a loop that drifted more stays open, as before.)
+// similarity_averaging.h), a right transform differs by the drift
+// accumulated along the links that join them; two identical facades matched
+// onto each other differ by the distance between them (several spreads),
+// a flipped facade by 180 degrees, and communities joined by nothing else
+// are in different parts. A confirmed transform's cross pairs are no false
+// pairs: they close the loop in the refinement.
+//
+// Drift: each kept link places its communities within the bounds, and
+// independent errors along a path of k links add up to about sqrt(k) times
+// one link's (a random walk); over parallel paths, less. The bounds are
+// therefore scaled by the square root of the effective resistance between
+// the two communities in the graph of kept links (each link one unit: k on
+// a path of k links, k/2 on two parallel ones), between 1 and
+// `max_drift_factor`. South Building's link at 512 px was 1.8 degrees, 2.7%
+// in scale and 0.199 spreads off across a path of 3 links (bounds 5, 0.2
+// and 0.2 unscaled; 8.7, 0.35 and 0.35 scaled).
 struct MergeResiduals {
   // Whether the averaging put both communities in one part (neither left
-  // the merge); `report` is only set then.
+  // the merge); `report` and `path_resistance` are only set then.
   bool joined = false;
   // The rejected transform's residuals under the averaged placement
   // (ComputeEdgeResiduals, similarity_averaging.h).
   SimilarityAveragingResult::EdgeReport report;
+  // The effective resistance between the two communities in the graph of
+  // the averaging's kept links, each link a unit resistance.
+  double path_resistance = 0.0;
 
-  bool WithinBounds(const SimilarityAveragingOptions& bounds) const;
+  // The factor the bounds are scaled by: sqrt(path_resistance) clamped to
+  // [1, max_drift_factor].
+  double DriftFactor(double max_drift_factor) const;
+  bool WithinBounds(const SimilarityAveragingOptions& bounds,
+                    double max_drift_factor = 1.0) const;
 };
 
+// `similarities` are those the averaging was given (averaging.edges is
+// indexed alike).
 MergeResiduals ResidualsAgainstMerge(
     const RejectedSimilarity& rejected,
+    const std::vector<RelativeSimilarity>& similarities,
     const SimilarityAveragingResult& averaging);
 
 }  // namespace colmap

@@ -168,13 +168,19 @@ TEST_F(EstimateCommunitySimilaritiesTest, ReportsRejectedTransformsWithPairs) {
   for (const image_pair_t pair_id : rejected.pairs) {
     EXPECT_EQ(result.false_pairs.count(pair_id), 1);
   }
-  // Placed by the merge as the truth places them, it is confirmed.
+  // Placed by the merge as the truth places them (through another link
+  // between them), it is confirmed.
   SimilarityAveragingResult averaging;
   averaging.part_of_community = {0, 0};
   averaging.excluded = {false, false};
   averaging.world_from_community = {Inverse(world_to_community_[0]),
                                     Inverse(world_to_community_[1])};
-  EXPECT_TRUE(ResidualsAgainstMerge(rejected, averaging)
+  std::vector<RelativeSimilarity> kept(1);
+  kept[0].community1 = 0;
+  kept[0].community2 = 1;
+  averaging.edges.resize(1);
+  averaging.edges[0].kept = true;
+  EXPECT_TRUE(ResidualsAgainstMerge(rejected, kept, averaging)
                   .WithinBounds(SimilarityAveragingOptions()));
 }
 
@@ -233,15 +239,42 @@ TEST_F(EstimateCommunitySimilaritiesTest, SameResultOnAnyNumberOfThreads) {
   }
 }
 
-// Communities 0 and 1 of one part, 1 placed relative to 0 by the averaging
-// as `merged_second_from_first`; community 2 in a part of its own.
+// The averaging's result for the similarities `*similarities`: communities
+// 0 and 1 of one part, joined through `num_links` kept links in a row (via
+// communities 3, 4, ...), and through a second such path if `parallel`;
+// community 1 placed relative to 0 as `merged_second_from_first`, community
+// 2 in a part of its own.
 SimilarityAveragingResult TwoJoinedOneApart(
-    const Sim3d& merged_second_from_first) {
+    const Sim3d& merged_second_from_first,
+    std::vector<RelativeSimilarity>* similarities,
+    const int num_links = 2,
+    const bool parallel = false) {
   SimilarityAveragingResult averaging;
   averaging.part_of_community = {0, 0, 1};
   averaging.excluded = {false, false, false};
   averaging.world_from_community = {
       Sim3d(), Inverse(merged_second_from_first), Sim3d()};
+  similarities->clear();
+  for (int path = 0; path < (parallel ? 2 : 1); ++path) {
+    int previous = 0;
+    for (int link = 0; link < num_links; ++link) {
+      int next = 1;
+      if (link + 1 < num_links) {
+        next = static_cast<int>(averaging.part_of_community.size());
+        averaging.part_of_community.push_back(0);
+        averaging.excluded.push_back(false);
+        averaging.world_from_community.push_back(Sim3d());
+      }
+      RelativeSimilarity similarity;
+      similarity.community1 = previous;
+      similarity.community2 = next;
+      similarities->push_back(similarity);
+      SimilarityAveragingResult::EdgeReport report;
+      report.kept = true;
+      averaging.edges.push_back(report);
+      previous = next;
+    }
+  }
   return averaging;
 }
 
@@ -278,9 +311,11 @@ TEST(ResidualsAgainstMerge, RightTransformWithDriftIsConfirmed) {
                       Eigen::Quaterniond(Eigen::AngleAxisd(
                           0.5 + DegToRad(1.0), Eigen::Vector3d::UnitZ())),
                       Eigen::Vector3d(1, 2, 3));
-  const MergeResiduals residuals =
-      ResidualsAgainstMerge(Rejected(0, 1, right, Eigen::Vector3d(2, 0, 0)),
-                            TwoJoinedOneApart(drifted));
+  std::vector<RelativeSimilarity> similarities;
+  const SimilarityAveragingResult averaging =
+      TwoJoinedOneApart(drifted, &similarities);
+  const MergeResiduals residuals = ResidualsAgainstMerge(
+      Rejected(0, 1, right, Eigen::Vector3d(2, 0, 0)), similarities, averaging);
   EXPECT_TRUE(residuals.joined);
   EXPECT_NEAR(residuals.report.rotation_residual_deg, 1.0, 1e-6);
   EXPECT_NEAR(residuals.report.log_scale_residual, std::log(1.01), 1e-9);
@@ -295,13 +330,22 @@ TEST(ResidualsAgainstMerge, IdenticalStructureElsewhereIsNot) {
       1.0, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
   const Sim3d stacked(
       1.0, Eigen::Quaterniond::Identity(), Eigen::Vector3d(10, 0, 0));
+  std::vector<RelativeSimilarity> similarities;
+  const SimilarityAveragingResult averaging =
+      TwoJoinedOneApart(right, &similarities, /*num_links=*/10);
   const MergeResiduals residuals =
       ResidualsAgainstMerge(Rejected(0, 1, stacked, Eigen::Vector3d::Zero()),
-                            TwoJoinedOneApart(right));
+                            similarities,
+                            averaging);
   EXPECT_TRUE(residuals.joined);
   EXPECT_NEAR(residuals.report.rotation_residual_deg, 0.0, 1e-6);
   EXPECT_GT(residuals.report.relative_translation_residual, 5);
   EXPECT_FALSE(residuals.WithinBounds(SimilarityAveragingOptions()));
+  // Not even across a path of 10 links with the bounds grown for its drift.
+  EXPECT_NEAR(residuals.path_resistance, 10.0, 1e-9);
+  EXPECT_FALSE(
+      residuals.WithinBounds(SimilarityAveragingOptions(), /*max_drift_factor=*/
+                             std::sqrt(10.0)));
 }
 
 TEST(ResidualsAgainstMerge, FlippedFacadeIsNot) {
@@ -309,9 +353,13 @@ TEST(ResidualsAgainstMerge, FlippedFacadeIsNot) {
       1.0,
       Eigen::Quaterniond(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY())),
       Eigen::Vector3d::Zero());
+  std::vector<RelativeSimilarity> similarities;
+  const SimilarityAveragingResult averaging =
+      TwoJoinedOneApart(Sim3d(), &similarities);
   const MergeResiduals residuals =
       ResidualsAgainstMerge(Rejected(0, 1, flipped, Eigen::Vector3d::Zero()),
-                            TwoJoinedOneApart(Sim3d()));
+                            similarities,
+                            averaging);
   EXPECT_NEAR(residuals.report.rotation_residual_deg, 180.0, 1e-6);
   EXPECT_FALSE(residuals.WithinBounds(SimilarityAveragingOptions()));
 }
@@ -319,17 +367,60 @@ TEST(ResidualsAgainstMerge, FlippedFacadeIsNot) {
 TEST(ResidualsAgainstMerge, NothingConfirmsALinkBetweenParts) {
   // Communities 0 and 2 are joined by nothing else (two models): the
   // rejected transform stays rejected, right or wrong.
+  std::vector<RelativeSimilarity> similarities;
+  SimilarityAveragingResult averaging =
+      TwoJoinedOneApart(Sim3d(), &similarities);
   const MergeResiduals residuals =
       ResidualsAgainstMerge(Rejected(0, 2, Sim3d(), Eigen::Vector3d::Zero()),
-                            TwoJoinedOneApart(Sim3d()));
+                            similarities,
+                            averaging);
   EXPECT_FALSE(residuals.joined);
-  EXPECT_FALSE(residuals.WithinBounds(SimilarityAveragingOptions()));
-  // Nor a link of a community that left the merge.
-  SimilarityAveragingResult averaging = TwoJoinedOneApart(Sim3d());
+  EXPECT_FALSE(residuals.WithinBounds(SimilarityAveragingOptions(),
+                                      /*max_drift_factor=*/10));
+  // Nor a link of a community that left the merge (a part of its own).
   averaging.excluded[1] = true;
-  EXPECT_FALSE(ResidualsAgainstMerge(
-                   Rejected(0, 1, Sim3d(), Eigen::Vector3d::Zero()), averaging)
-                   .joined);
+  averaging.part_of_community[1] = 2;
+  EXPECT_FALSE(
+      ResidualsAgainstMerge(Rejected(0, 1, Sim3d(), Eigen::Vector3d::Zero()),
+                            similarities,
+                            averaging)
+          .joined);
+}
+
+TEST(ResidualsAgainstMerge, BoundsGrowWithThePathsDrift) {
+  // The merge placed community 1 a third of a spread off the rejected
+  // transform: beyond the averaging's bound (0.2), within it grown for the
+  // drift of 3 links in a row (times sqrt(3)), not for 3 links of which
+  // parallel paths (2 + 2) bring the resistance down to 1.
+  const Sim3d right(
+      1.0, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
+  const RejectedSimilarity rejected =
+      Rejected(0, 1, right, Eigen::Vector3d::Zero());
+  std::vector<RelativeSimilarity> similarities;
+  const Sim3d drifted(
+      1.0, Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.3, 0, 0));
+  SimilarityAveragingResult averaging =
+      TwoJoinedOneApart(drifted, &similarities, /*num_links=*/3);
+  const MergeResiduals residuals =
+      ResidualsAgainstMerge(rejected, similarities, averaging);
+  ASSERT_GT(residuals.report.relative_translation_residual, 0.2);
+  ASSERT_LT(residuals.report.relative_translation_residual,
+            0.2 * std::sqrt(3.0));
+  EXPECT_NEAR(residuals.path_resistance, 3.0, 1e-9);
+  EXPECT_NEAR(residuals.DriftFactor(2.0), std::sqrt(3.0), 1e-9);
+  EXPECT_FALSE(residuals.WithinBounds(SimilarityAveragingOptions()));
+  EXPECT_TRUE(residuals.WithinBounds(SimilarityAveragingOptions(),
+                                     /*max_drift_factor=*/2.0));
+  // The factor is capped.
+  EXPECT_NEAR(residuals.DriftFactor(1.5), 1.5, 1e-9);
+
+  averaging = TwoJoinedOneApart(
+      drifted, &similarities, /*num_links=*/2, /*parallel=*/true);
+  const MergeResiduals parallel =
+      ResidualsAgainstMerge(rejected, similarities, averaging);
+  EXPECT_NEAR(parallel.path_resistance, 1.0, 1e-9);
+  EXPECT_FALSE(parallel.WithinBounds(SimilarityAveragingOptions(),
+                                     /*max_drift_factor=*/2.0));
 }
 
 }  // namespace
