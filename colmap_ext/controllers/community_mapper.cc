@@ -522,6 +522,7 @@ SimilarityAveragingResult JudgeAndAverage(
   SimilarityAveragingResult averaging = AverageSimilarities(
       averaged_communities, similarities, options.similarity_averaging);
   summary->community_excluded = averaging.excluded;
+  summary->num_kept_similarities = 0;
   for (size_t e = 0; e < similarities.size(); ++e) {
     const auto& report = averaging.edges[e];
     summary->num_kept_similarities += report.kept ? 1 : 0;
@@ -541,6 +542,70 @@ SimilarityAveragingResult JudgeAndAverage(
                               : "dropped");
   }
   return averaging;
+}
+
+// Options::join_parts_by_rejected_links: averages again with the rejected
+// transforms that may join two parts (FindRejectedLinksJoiningParts) and
+// keeps that result if it keeps them and every link kept before, sends no
+// further community out of the merge and has fewer parts. The transforms
+// then move from the rejected ones to `similarities` (their pairs are no
+// false pairs any more).
+void JoinPartsByRejectedLinks(const CommunityMapperController::Options& options,
+                              CommunitySimilarities* community_similarities,
+                              SimilarityAveragingResult* averaging,
+                              CommunityMapperController::Summary* summary) {
+  if (!options.join_parts_by_rejected_links || averaging->NumParts() < 2) {
+    return;
+  }
+  std::vector<RejectedSimilarity>& rejected_similarities =
+      community_similarities->rejected_similarities;
+  const std::vector<int> candidates =
+      FindRejectedLinksJoiningParts(rejected_similarities, *averaging);
+  if (candidates.empty()) {
+    return;
+  }
+  std::vector<RelativeSimilarity> similarities =
+      community_similarities->similarities;
+  std::string names;
+  for (const int r : candidates) {
+    const RelativeSimilarity& similarity = rejected_similarities[r].similarity;
+    similarities.push_back(similarity);
+    names +=
+        StringPrintf(" %d-%d", similarity.community1, similarity.community2);
+  }
+  LOG(INFO) << "Similarities the co-visibility check rejected that may join "
+               "parts (pairs of them from one community to two of another "
+               "part, on different points):"
+            << names << "; averaging again with them.";
+  const CommunityMapperController::Summary before = *summary;
+  SimilarityAveragingResult joined =
+      JudgeAndAverage(options, similarities, summary);
+  const size_t num_before = community_similarities->similarities.size();
+  bool accepted = joined.NumParts() < averaging->NumParts() &&
+                  joined.excluded == averaging->excluded;
+  for (size_t e = 0; e < similarities.size(); ++e) {
+    if (e >= num_before || averaging->edges[e].kept) {
+      accepted = accepted && joined.edges[e].kept;
+    }
+  }
+  if (!accepted) {
+    LOG(INFO) << "They do not join the parts consistently: the first "
+                 "averaging stands.";
+    *summary = before;
+    return;
+  }
+  LOG(INFO) << StringPrintf("They join the parts: %d parts instead of %d.",
+                            joined.NumParts(),
+                            averaging->NumParts());
+  for (auto r = candidates.rbegin(); r != candidates.rend(); ++r) {
+    for (const image_pair_t pair_id : rejected_similarities[*r].pairs) {
+      community_similarities->false_pairs.erase(pair_id);
+    }
+    rejected_similarities.erase(rejected_similarities.begin() + *r);
+  }
+  summary->num_estimated_similarities += static_cast<int>(candidates.size());
+  community_similarities->similarities = std::move(similarities);
+  *averaging = std::move(joined);
 }
 
 // The cross pairs of rejected transforms (community_alignment.h), but those
@@ -1238,22 +1303,24 @@ bool CommunityMapperController::Merge() {
   const CrossEdges cross_edges =
       GroupCrossEdges(view_graph, communities.community_of_image);
   summary_.num_community_pairs = static_cast<int>(cross_edges.size());
-  const CommunitySimilarities community_similarities =
-      EstimateCommunitySimilarities(
-          database,
-          view_graph,
-          cross_edges,
-          std::vector<std::shared_ptr<const Reconstruction>>(models.begin(),
-                                                             models.end()),
-          options_.pairwise_similarity,
-          options_.covisibility_check,
-          options_.incremental_options.num_threads);
+  CommunitySimilarities community_similarities = EstimateCommunitySimilarities(
+      database,
+      view_graph,
+      cross_edges,
+      std::vector<std::shared_ptr<const Reconstruction>>(models.begin(),
+                                                         models.end()),
+      options_.pairwise_similarity,
+      options_.covisibility_check,
+      options_.incremental_options.num_threads);
+  summary_.num_estimated_similarities =
+      static_cast<int>(community_similarities.similarities.size());
+
+  SimilarityAveragingResult averaging =
+      JudgeAndAverage(options_, community_similarities.similarities, &summary_);
+  JoinPartsByRejectedLinks(
+      options_, &community_similarities, &averaging, &summary_);
   const std::vector<RelativeSimilarity>& similarities =
       community_similarities.similarities;
-  summary_.num_estimated_similarities = static_cast<int>(similarities.size());
-
-  const SimilarityAveragingResult averaging =
-      JudgeAndAverage(options_, similarities, &summary_);
   const std::unordered_set<image_pair_t> false_pairs =
       FalsePairsAfterTheMerge(options_, community_similarities, averaging);
   if (!false_pairs.empty()) {

@@ -180,6 +180,15 @@ class CommunityMapperController : public BaseController {
     // facades matched onto each other lie several spreads apart.
     double rejected_link_max_drift_factor = 2.0;
 
+    // Where a community that the averaging left in a part apart has two
+    // rejected similarities to two different communities of another part,
+    // resting on different points of it (FindRejectedLinksJoiningParts in
+    // community_alignment.h), the averaging is run again with them: if it
+    // keeps both, and every link it kept before, without sending any
+    // community out of the merge, the two parts are one (the similarities'
+    // pairs stay in the refinement); otherwise the first averaging stands.
+    bool join_parts_by_rejected_links = true;
+
     // What makes a community's own model doubtful.
     CommunityJudgementOptions judgement;
 

@@ -1,5 +1,7 @@
 #include "colmap_ext/sfm/community_alignment.h"
 
+#include "colmap_ext/util/union_find.h"
+
 #include "colmap/math/random.h"
 #include "colmap/util/logging.h"
 #include "colmap/util/misc.h"
@@ -334,28 +336,39 @@ CommunitySimilarities EstimateCommunitySimilarities(
 namespace {
 
 // The effective resistance between communities c1 and c2 in the graph of
-// the kept edges, each a unit resistance (c1 and c2 must be connected by
-// them): with c2 grounded, the potential at c1 when a unit current enters
-// there, L x = e_c1.
+// the kept edges, each a unit resistance: with c2 grounded, the potential
+// at c1 when a unit current enters there (L x = e_c1 over the communities
+// the kept edges connect to c1). 1 if they do not connect them (the bounds
+// then stay as they are).
 double EffectiveResistance(const std::vector<RelativeSimilarity>& similarities,
                            const SimilarityAveragingResult& averaging,
                            const int c1,
                            const int c2) {
-  const int part = averaging.part_of_community[c1];
+  std::vector<std::pair<int, int>> kept_edges;
+  for (size_t e = 0; e < similarities.size(); ++e) {
+    if (averaging.edges[e].kept) {
+      kept_edges.emplace_back(similarities[e].community1,
+                              similarities[e].community2);
+    }
+  }
+  const std::vector<int> labels = ConnectedComponentLabels(
+      static_cast<int>(averaging.part_of_community.size()), kept_edges);
+  if (labels[c1] != labels[c2]) {
+    return 1.0;
+  }
   std::map<int, int> index;  // Community -> row, c2 grounded (no row).
-  for (size_t c = 0; c < averaging.part_of_community.size(); ++c) {
-    if (averaging.part_of_community[c] == part && !averaging.excluded[c] &&
-        static_cast<int>(c) != c2) {
+  for (size_t c = 0; c < labels.size(); ++c) {
+    if (labels[c] == labels[c1] && static_cast<int>(c) != c2) {
       index.emplace(static_cast<int>(c), static_cast<int>(index.size()));
     }
   }
   std::vector<Eigen::Triplet<double>> triplets;
-  for (size_t e = 0; e < similarities.size(); ++e) {
-    if (!averaging.edges[e].kept) {
+  for (const std::pair<int, int>& edge : kept_edges) {
+    if (labels[edge.first] != labels[c1]) {
       continue;
     }
-    const auto it1 = index.find(similarities[e].community1);
-    const auto it2 = index.find(similarities[e].community2);
+    const auto it1 = index.find(edge.first);
+    const auto it2 = index.find(edge.second);
     if (it1 != index.end()) {
       triplets.emplace_back(it1->second, it1->second, 1.0);
     }
@@ -370,12 +383,15 @@ double EffectiveResistance(const std::vector<RelativeSimilarity>& similarities,
   const int n = static_cast<int>(index.size());
   Eigen::SparseMatrix<double> laplacian(n, n);
   laplacian.setFromTriplets(triplets.begin(), triplets.end());
+  // Connected and grounded: positive definite.
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(laplacian);
-  THROW_CHECK(solver.info() == Eigen::Success);
   Eigen::VectorXd current = Eigen::VectorXd::Zero(n);
   current(index.at(c1)) = 1.0;
   const Eigen::VectorXd potential = solver.solve(current);
-  return potential(index.at(c1));
+  const double resistance = potential(index.at(c1));
+  return solver.info() == Eigen::Success && std::isfinite(resistance)
+             ? resistance
+             : 1.0;
 }
 
 }  // namespace
@@ -418,6 +434,93 @@ MergeResiduals ResidualsAgainstMerge(
   residuals.path_resistance =
       EffectiveResistance(similarities, averaging, c1, c2);
   return residuals;
+}
+
+std::vector<int> FindRejectedLinksJoiningParts(
+    const std::vector<RejectedSimilarity>& rejected_similarities,
+    const SimilarityAveragingResult& averaging,
+    const double max_shared_support) {
+  // The strongest rejected transform of each community pair between parts.
+  std::map<std::pair<int, int>, int> strongest;
+  for (size_t r = 0; r < rejected_similarities.size(); ++r) {
+    const RelativeSimilarity& similarity = rejected_similarities[r].similarity;
+    const int c1 = similarity.community1;
+    const int c2 = similarity.community2;
+    if (c1 < 0 || c2 < 0 || c1 == c2 ||
+        std::max(c1, c2) >=
+            static_cast<int>(averaging.part_of_community.size()) ||
+        averaging.excluded[c1] || averaging.excluded[c2] ||
+        averaging.part_of_community[c1] == averaging.part_of_community[c2]) {
+      continue;
+    }
+    const auto inserted = strongest.emplace(std::minmax(c1, c2), r);
+    if (!inserted.second && similarity.points1.size() >
+                                rejected_similarities[inserted.first->second]
+                                    .similarity.points1.size()) {
+      inserted.first->second = static_cast<int>(r);
+    }
+  }
+  // By community c and the other part: c's inlier points of each transform.
+  struct Link {
+    int index;
+    int other_community;
+    std::unordered_set<point3D_t> support;
+  };
+  std::map<std::pair<int, int>, std::vector<Link>> links;
+  for (const auto& pair_and_index : strongest) {
+    const RelativeSimilarity& similarity =
+        rejected_similarities[pair_and_index.second].similarity;
+    for (const bool first : {true, false}) {
+      const int c = first ? similarity.community1 : similarity.community2;
+      const int other = first ? similarity.community2 : similarity.community1;
+      Link link;
+      link.index = pair_and_index.second;
+      link.other_community = other;
+      for (const auto& ids : similarity.point3D_ids) {
+        link.support.insert(first ? ids.first : ids.second);
+      }
+      links[{c, averaging.part_of_community[other]}].push_back(std::move(link));
+    }
+  }
+  std::set<int> candidates;
+  for (const auto& group : links) {
+    const std::vector<Link>& group_links = group.second;
+    for (size_t i = 0; i < group_links.size(); ++i) {
+      for (size_t j = i + 1; j < group_links.size(); ++j) {
+        const Link& a = group_links[i];
+        const Link& b = group_links[j];
+        if (a.other_community == b.other_community || a.support.empty() ||
+            b.support.empty()) {
+          continue;
+        }
+        const Link& smaller = a.support.size() <= b.support.size() ? a : b;
+        const Link& larger = &smaller == &a ? b : a;
+        size_t num_shared = 0;
+        for (const point3D_t point3D_id : smaller.support) {
+          num_shared += larger.support.count(point3D_id);
+        }
+        const bool different_points =
+            num_shared <= max_shared_support * smaller.support.size();
+        LOG(INFO) << StringPrintf(
+            "Community %d: its rejected transforms to communities %d and %d "
+            "(another part) rest on %d and %d of its points, %d in common "
+            "-> %s",
+            group.first.first,
+            a.other_community,
+            b.other_community,
+            static_cast<int>(a.support.size()),
+            static_cast<int>(b.support.size()),
+            static_cast<int>(num_shared),
+            different_points ? "averaged with the others"
+                             : "the same structure, not used");
+        if (different_points) {
+          candidates.insert(a.index);
+          candidates.insert(b.index);
+        }
+      }
+    }
+  }
+  return std::vector<int>(candidates.begin(), candidates.end());
 }
 
 }  // namespace colmap

@@ -129,4 +129,21 @@ MergeResiduals ResidualsAgainstMerge(
     const std::vector<RelativeSimilarity>& similarities,
     const SimilarityAveragingResult& averaging);
 
+// Rejected transforms that may join two parts of the averaging (Options::
+// join_parts_by_rejected_links in community_mapper.h): where one community c
+// has rejected transforms to two different communities a and b of one other
+// part, each a bridge alone that nothing can confirm, the two together close
+// a cycle through the part, and averaging them with the kept links tells
+// whether c sits where both place it. Repeated structure can place c alike
+// twice only where both transforms rest on the same structure of c (its
+// tower matched onto one tower that a and b both see): the two must rest on
+// different points of c, at most `max_shared_support` of the smaller
+// support in common. Of several rejected transforms of one community pair,
+// only the one with the most inliers counts. Returns indices into
+// `rejected_similarities`, in order.
+std::vector<int> FindRejectedLinksJoiningParts(
+    const std::vector<RejectedSimilarity>& rejected_similarities,
+    const SimilarityAveragingResult& averaging,
+    double max_shared_support = 0.5);
+
 }  // namespace colmap

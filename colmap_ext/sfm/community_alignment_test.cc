@@ -421,6 +421,75 @@ TEST(ResidualsAgainstMerge, BoundsGrowWithThePathsDrift) {
   EXPECT_NEAR(parallel.path_resistance, 1.0, 1e-9);
   EXPECT_FALSE(parallel.WithinBounds(SimilarityAveragingOptions(),
                                      /*max_drift_factor=*/2.0));
+
+  // Put in one part with no kept link between them, the bounds stay.
+  for (auto& report : averaging.edges) {
+    report.kept = false;
+  }
+  EXPECT_EQ(
+      ResidualsAgainstMerge(rejected, similarities, averaging).path_resistance,
+      1.0);
+}
+
+// A rejected transform between two communities whose inliers are the points
+// `ids1` of the first and `ids2` of the second.
+RejectedSimilarity RejectedWithSupport(const int community1,
+                                       const int community2,
+                                       const std::vector<point3D_t>& ids1,
+                                       const point3D_t first_id2) {
+  RejectedSimilarity rejected;
+  rejected.similarity.community1 = community1;
+  rejected.similarity.community2 = community2;
+  for (size_t i = 0; i < ids1.size(); ++i) {
+    rejected.similarity.point3D_ids.emplace_back(ids1[i], first_id2 + i);
+    rejected.similarity.points1.emplace_back(0, 0, 0);
+    rejected.similarity.points2.emplace_back(0, 0, 0);
+  }
+  return rejected;
+}
+
+std::vector<point3D_t> Ids(const point3D_t first, const int count) {
+  std::vector<point3D_t> ids;
+  for (int i = 0; i < count; ++i) {
+    ids.push_back(first + i);
+  }
+  return ids;
+}
+
+TEST(FindRejectedLinksJoiningParts, TwoLinksOnDifferentPointsOfOneCommunity) {
+  // Communities 0, 1 and 3 in part 0, community 2 a part of its own.
+  SimilarityAveragingResult averaging;
+  averaging.part_of_community = {0, 0, 1, 0};
+  averaging.excluded = {false, false, false, false};
+  // 2's points 100-139 matched into 0, its points 200-239 into 1: both; a
+  // weaker second transform of 2-0 is not.
+  std::vector<RejectedSimilarity> rejected = {
+      RejectedWithSupport(2, 0, Ids(100, 40), 1000),
+      RejectedWithSupport(0, 2, Ids(1000, 30), 205),
+      RejectedWithSupport(1, 2, Ids(2000, 40), 200),
+  };
+  EXPECT_EQ(FindRejectedLinksJoiningParts(rejected, averaging),
+            std::vector<int>({0, 2}));
+
+  // On the same points of 2 (its tower matched onto a tower that 0 and 1
+  // both see): neither.
+  rejected = {RejectedWithSupport(2, 0, Ids(100, 40), 1000),
+              RejectedWithSupport(1, 2, Ids(2000, 40), 110)};
+  EXPECT_TRUE(FindRejectedLinksJoiningParts(rejected, averaging).empty());
+
+  // One link alone (a bridge) or two to the same community: none.
+  rejected = {RejectedWithSupport(2, 0, Ids(100, 40), 1000)};
+  EXPECT_TRUE(FindRejectedLinksJoiningParts(rejected, averaging).empty());
+  // Within one part (ResidualsAgainstMerge judges those): none.
+  rejected = {RejectedWithSupport(0, 1, Ids(100, 40), 1000),
+              RejectedWithSupport(0, 3, Ids(200, 40), 1000)};
+  EXPECT_TRUE(FindRejectedLinksJoiningParts(rejected, averaging).empty());
+  // Nor to a community that left the merge.
+  averaging.excluded[1] = true;
+  averaging.part_of_community = {0, 2, 1, 0};
+  rejected = {RejectedWithSupport(2, 0, Ids(100, 40), 1000),
+              RejectedWithSupport(1, 2, Ids(2000, 40), 200)};
+  EXPECT_TRUE(FindRejectedLinksJoiningParts(rejected, averaging).empty());
 }
 
 }  // namespace
