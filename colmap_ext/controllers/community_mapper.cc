@@ -493,11 +493,14 @@ void ReadCommunityModels(const CommunityMapperController::Options& options,
 
 // Judges every community's own model (JudgeCommunityModels: broken ones
 // leave the merge, doubtful ones count little) and averages the
-// similarities between them; logs each link's residuals and fate. Fills
-// the judgements and the kept links of `summary`.
+// similarities between them; where rejected similarities may join parts
+// (Options::join_parts_by_rejected_links), averages again with them, and
+// those that join move from the rejected ones to the similarities (their
+// pairs are no false pairs any more). Logs each link's residuals and fate.
+// Fills the judgements and the links of `summary`.
 SimilarityAveragingResult JudgeAndAverage(
     const CommunityMapperController::Options& options,
-    const std::vector<RelativeSimilarity>& similarities,
+    CommunitySimilarities* community_similarities,
     CommunityMapperController::Summary* summary) {
   const int num_communities =
       static_cast<int>(summary->community_reports.size());
@@ -519,16 +522,36 @@ SimilarityAveragingResult JudgeAndAverage(
           judgement.broken ? "" : ": it takes part with little weight.");
     }
   }
+  std::vector<RelativeSimilarity>& similarities =
+      community_similarities->similarities;
   SimilarityAveragingResult averaging = AverageSimilarities(
       averaged_communities, similarities, options.similarity_averaging);
+  std::vector<int> joined;
+  if (options.join_parts_by_rejected_links &&
+      JoinPartsByRejectedLinks(averaged_communities,
+                               community_similarities->rejected_similarities,
+                               options.similarity_averaging,
+                               &similarities,
+                               &averaging,
+                               &joined)) {
+    std::vector<RejectedSimilarity>& rejected =
+        community_similarities->rejected_similarities;
+    for (auto r = joined.rbegin(); r != joined.rend(); ++r) {
+      for (const image_pair_t pair_id : rejected[*r].pairs) {
+        community_similarities->false_pairs.erase(pair_id);
+      }
+      rejected.erase(rejected.begin() + *r);
+    }
+  }
   summary->community_excluded = averaging.excluded;
+  summary->num_estimated_similarities = static_cast<int>(similarities.size());
   summary->num_kept_similarities = 0;
   for (size_t e = 0; e < similarities.size(); ++e) {
     const auto& report = averaging.edges[e];
     summary->num_kept_similarities += report.kept ? 1 : 0;
     LOG(INFO) << StringPrintf(
         "Communities %d-%d: residuals rotation %.3f deg, scale %.4f, "
-        "translation %.4f -> %s",
+        "translation %.4f -> %s%s",
         similarities[e].community1,
         similarities[e].community2,
         report.rotation_residual_deg,
@@ -539,73 +562,12 @@ SimilarityAveragingResult JudgeAndAverage(
                                 "both models registered contradict it)"
         : report.unconfirmed  ? "dropped (on no cycle, and the images both "
                                 "models registered do not confirm it)"
-                              : "dropped");
+                              : "dropped",
+        e + joined.size() >= similarities.size()
+            ? " (rejected by the co-visibility check, joins two parts)"
+            : "");
   }
   return averaging;
-}
-
-// Options::join_parts_by_rejected_links: averages again with the rejected
-// transforms that may join two parts (FindRejectedLinksJoiningParts) and
-// keeps that result if it keeps them and every link kept before, sends no
-// further community out of the merge and has fewer parts. The transforms
-// then move from the rejected ones to `similarities` (their pairs are no
-// false pairs any more).
-void JoinPartsByRejectedLinks(const CommunityMapperController::Options& options,
-                              CommunitySimilarities* community_similarities,
-                              SimilarityAveragingResult* averaging,
-                              CommunityMapperController::Summary* summary) {
-  if (!options.join_parts_by_rejected_links || averaging->NumParts() < 2) {
-    return;
-  }
-  std::vector<RejectedSimilarity>& rejected_similarities =
-      community_similarities->rejected_similarities;
-  const std::vector<int> candidates =
-      FindRejectedLinksJoiningParts(rejected_similarities, *averaging);
-  if (candidates.empty()) {
-    return;
-  }
-  std::vector<RelativeSimilarity> similarities =
-      community_similarities->similarities;
-  std::string names;
-  for (const int r : candidates) {
-    const RelativeSimilarity& similarity = rejected_similarities[r].similarity;
-    similarities.push_back(similarity);
-    names +=
-        StringPrintf(" %d-%d", similarity.community1, similarity.community2);
-  }
-  LOG(INFO) << "Similarities the co-visibility check rejected that may join "
-               "parts (pairs of them from one community to two of another "
-               "part, on different points):"
-            << names << "; averaging again with them.";
-  const CommunityMapperController::Summary before = *summary;
-  SimilarityAveragingResult joined =
-      JudgeAndAverage(options, similarities, summary);
-  const size_t num_before = community_similarities->similarities.size();
-  bool accepted = joined.NumParts() < averaging->NumParts() &&
-                  joined.excluded == averaging->excluded;
-  for (size_t e = 0; e < similarities.size(); ++e) {
-    if (e >= num_before || averaging->edges[e].kept) {
-      accepted = accepted && joined.edges[e].kept;
-    }
-  }
-  if (!accepted) {
-    LOG(INFO) << "They do not join the parts consistently: the first "
-                 "averaging stands.";
-    *summary = before;
-    return;
-  }
-  LOG(INFO) << StringPrintf("They join the parts: %d parts instead of %d.",
-                            joined.NumParts(),
-                            averaging->NumParts());
-  for (auto r = candidates.rbegin(); r != candidates.rend(); ++r) {
-    for (const image_pair_t pair_id : rejected_similarities[*r].pairs) {
-      community_similarities->false_pairs.erase(pair_id);
-    }
-    rejected_similarities.erase(rejected_similarities.begin() + *r);
-  }
-  summary->num_estimated_similarities += static_cast<int>(candidates.size());
-  community_similarities->similarities = std::move(similarities);
-  *averaging = std::move(joined);
 }
 
 // The cross pairs of rejected transforms (community_alignment.h), but those
@@ -1312,13 +1274,8 @@ bool CommunityMapperController::Merge() {
       options_.pairwise_similarity,
       options_.covisibility_check,
       options_.incremental_options.num_threads);
-  summary_.num_estimated_similarities =
-      static_cast<int>(community_similarities.similarities.size());
-
-  SimilarityAveragingResult averaging =
-      JudgeAndAverage(options_, community_similarities.similarities, &summary_);
-  JoinPartsByRejectedLinks(
-      options_, &community_similarities, &averaging, &summary_);
+  const SimilarityAveragingResult averaging =
+      JudgeAndAverage(options_, &community_similarities, &summary_);
   const std::vector<RelativeSimilarity>& similarities =
       community_similarities.similarities;
   const std::unordered_set<image_pair_t> false_pairs =

@@ -182,8 +182,8 @@ class CommunityMapperController : public BaseController {
 
     // Where a community that the averaging left in a part apart has two
     // rejected similarities to two different communities of another part,
-    // resting on different points of it (FindRejectedLinksJoiningParts in
-    // community_alignment.h), the averaging is run again with them: if it
+    // resting on different points of it, the averaging is run again with
+    // them (JoinPartsByRejectedLinks in community_alignment.h): if it
     // keeps both, and every link it kept before, without sending any
     // community out of the merge, the two parts are one (the similarities'
     // pairs stay in the refinement); otherwise the first averaging stands.

@@ -523,4 +523,50 @@ std::vector<int> FindRejectedLinksJoiningParts(
   return std::vector<int>(candidates.begin(), candidates.end());
 }
 
+bool JoinPartsByRejectedLinks(
+    const std::vector<AveragedCommunity>& communities,
+    const std::vector<RejectedSimilarity>& rejected_similarities,
+    const SimilarityAveragingOptions& options,
+    std::vector<RelativeSimilarity>* similarities,
+    SimilarityAveragingResult* averaging,
+    std::vector<int>* joined) {
+  joined->clear();
+  if (averaging->NumParts() < 2) {
+    return false;
+  }
+  const std::vector<int> candidates =
+      FindRejectedLinksJoiningParts(rejected_similarities, *averaging);
+  if (candidates.empty()) {
+    return false;
+  }
+  std::vector<RelativeSimilarity> extended = *similarities;
+  for (const int r : candidates) {
+    extended.push_back(rejected_similarities[r].similarity);
+  }
+  SimilarityAveragingResult result =
+      AverageSimilarities(communities, extended, options);
+  bool accepted = result.NumParts() < averaging->NumParts() &&
+                  result.excluded == averaging->excluded;
+  for (size_t e = 0; e < extended.size(); ++e) {
+    if (e >= similarities->size() || averaging->edges[e].kept) {
+      accepted = accepted && result.edges[e].kept;
+    }
+  }
+  LOG(INFO) << StringPrintf(
+      "Averaged again with %d rejected similarities that may join parts: %d "
+      "parts instead of %d, %s",
+      static_cast<int>(candidates.size()),
+      result.NumParts(),
+      averaging->NumParts(),
+      accepted ? "every link kept: they join the parts"
+               : "not every link kept: the first averaging stands");
+  if (!accepted) {
+    return false;
+  }
+  *similarities = std::move(extended);
+  *averaging = std::move(result);
+  *joined = candidates;
+  return true;
+}
+
 }  // namespace colmap

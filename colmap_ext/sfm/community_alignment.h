@@ -146,4 +146,19 @@ std::vector<int> FindRejectedLinksJoiningParts(
     const SimilarityAveragingResult& averaging,
     double max_shared_support = 0.5);
 
+// Averages `similarities` again with the rejected transforms that may join
+// two parts (FindRejectedLinksJoiningParts) and accepts the result if it
+// keeps all of them and every link `averaging` kept, sends no further
+// community out of the merge and has fewer parts. If accepted, returns
+// true: the joining transforms are appended to `similarities` (in the order
+// of `joined`, their indices into `rejected_similarities`), and `averaging`
+// holds the new result, indexed alike. Otherwise nothing changes.
+bool JoinPartsByRejectedLinks(
+    const std::vector<AveragedCommunity>& communities,
+    const std::vector<RejectedSimilarity>& rejected_similarities,
+    const SimilarityAveragingOptions& options,
+    std::vector<RelativeSimilarity>* similarities,
+    SimilarityAveragingResult* averaging,
+    std::vector<int>* joined);
+
 }  // namespace colmap

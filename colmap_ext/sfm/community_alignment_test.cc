@@ -492,5 +492,115 @@ TEST(FindRejectedLinksJoiningParts, TwoLinksOnDifferentPointsOfOneCommunity) {
   EXPECT_TRUE(FindRejectedLinksJoiningParts(rejected, averaging).empty());
 }
 
+// A link of communities c1 and c2 placed by `world_from_community`: its
+// inliers 200 points around `center` in c1's frame, with point ids from
+// `first_id` in both models.
+RelativeSimilarity Link(const int c1,
+                        const int c2,
+                        const std::vector<Sim3d>& world_from_community,
+                        const Eigen::Vector3d& center,
+                        const point3D_t first_id) {
+  RelativeSimilarity link;
+  link.community1 = c1;
+  link.community2 = c2;
+  link.second_from_first =
+      Inverse(world_from_community[c2]) * world_from_community[c1];
+  std::mt19937 rng(first_id);
+  std::uniform_real_distribution<double> uniform(-1, 1);
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Vector3d x1 =
+        center + Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng));
+    link.points1.push_back(x1);
+    link.points2.push_back(link.second_from_first * x1);
+    link.point3D_ids.emplace_back(first_id + i, first_id + i);
+  }
+  link.num_inliers = 200;
+  return link;
+}
+
+TEST(JoinPartsByRejectedLinks, JoinsWhereBothRejectedLinksAgree) {
+  // Communities 0 and 1 joined through 3; community 2 between 0 and 1, both
+  // of its links rejected by the co-visibility check.
+  const std::vector<Sim3d> world_from_community = {
+      Sim3d(),
+      Sim3d(
+          1.3,
+          Eigen::Quaterniond(Eigen::AngleAxisd(1.0, Eigen::Vector3d::UnitZ())),
+          Eigen::Vector3d(10, 2, 0)),
+      Sim3d(
+          0.8,
+          Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ())),
+          Eigen::Vector3d(6, -4, 1)),
+      Sim3d(
+          1.1,
+          Eigen::Quaterniond(Eigen::AngleAxisd(-0.4, Eigen::Vector3d::UnitY())),
+          Eigen::Vector3d(4, 5, -1))};
+  const std::vector<AveragedCommunity> communities(4, [] {
+    AveragedCommunity community;
+    community.num_images = 30;
+    return community;
+  }());
+  const std::vector<RelativeSimilarity> kept = {
+      Link(0, 3, world_from_community, Eigen::Vector3d(2, 3, 0), 0),
+      Link(1, 3, world_from_community, Eigen::Vector3d(-1, 0, 2), 1000)};
+  const auto rejected_links = [&](const Sim3d& error) {
+    std::vector<RejectedSimilarity> rejected(2);
+    // 2's points 2000-2199 matched into 0, its points 3000-3199 into 1.
+    rejected[0].similarity =
+        Link(2, 0, world_from_community, Eigen::Vector3d(1, 1, 1), 2000);
+    rejected[0].pairs = {1, 2};
+    rejected[1].similarity =
+        Link(2, 1, world_from_community, Eigen::Vector3d(-2, 1, 0), 3000);
+    rejected[1].similarity.second_from_first =
+        error * rejected[1].similarity.second_from_first;
+    rejected[1].pairs = {3};
+    return rejected;
+  };
+  const SimilarityAveragingOptions options;
+
+  std::vector<RelativeSimilarity> similarities = kept;
+  SimilarityAveragingResult averaging =
+      AverageSimilarities(communities, similarities, options);
+  ASSERT_EQ(averaging.NumParts(), 2);
+  std::vector<int> joined;
+  EXPECT_TRUE(JoinPartsByRejectedLinks(communities,
+                                       rejected_links(Sim3d()),
+                                       options,
+                                       &similarities,
+                                       &averaging,
+                                       &joined));
+  EXPECT_EQ(joined, std::vector<int>({0, 1}));
+  ASSERT_EQ(similarities.size(), 4);
+  EXPECT_EQ(similarities[2].community1, 2);
+  EXPECT_EQ(similarities[3].community2, 1);
+  EXPECT_EQ(averaging.NumParts(), 1);
+  ASSERT_EQ(averaging.edges.size(), 4);
+  const Sim3d placed = Inverse(averaging.world_from_community[0]) *
+                       averaging.world_from_community[2];
+  const Sim3d truth =
+      Inverse(world_from_community[0]) * world_from_community[2];
+  EXPECT_LT(placed.rotation.angularDistance(truth.rotation), 1e-6);
+  EXPECT_NEAR(placed.scale, truth.scale, 1e-6);
+  EXPECT_LT((placed.translation - truth.translation).norm(), 1e-6);
+
+  // One of them 20 degrees off: the cycle does not close, nothing changes.
+  similarities = kept;
+  averaging = AverageSimilarities(communities, similarities, options);
+  EXPECT_FALSE(JoinPartsByRejectedLinks(
+      communities,
+      rejected_links(Sim3d(1.0,
+                           Eigen::Quaterniond(Eigen::AngleAxisd(
+                               DegToRad(20.0), Eigen::Vector3d::UnitX())),
+                           Eigen::Vector3d::Zero())),
+      options,
+      &similarities,
+      &averaging,
+      &joined));
+  EXPECT_TRUE(joined.empty());
+  EXPECT_EQ(similarities.size(), 2);
+  EXPECT_EQ(averaging.NumParts(), 2);
+  EXPECT_EQ(averaging.edges.size(), 2);
+}
+
 }  // namespace
 }  // namespace colmap
