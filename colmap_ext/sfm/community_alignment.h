@@ -15,7 +15,8 @@
 // merged model's refinement must not re-introduce them as tracks. The
 // rejected transforms are reported too, each with its pairs, so that the
 // merge can confirm one that a cycle of other links places alike
-// (ResidualsAgainstMerge, below).
+// (ResidualsAgainstMerge, below), or join two parts by two of them that
+// agree (JoinPartsByRejectedLinks).
 
 #pragma once
 
@@ -140,7 +141,11 @@ MergeResiduals ResidualsAgainstMerge(
 // different points of c, at most `max_shared_support` of the smaller
 // support in common. Of several rejected transforms of one community pair,
 // only the one with the most inliers counts. Returns indices into
-// `rejected_similarities`, in order.
+// `rejected_similarities`, in order. (South Building resized to 384 px: a
+// community of 28 images between two others had rejected links to both,
+// 0 of 14 and 0 of 47 predicted pairs verified, on 160 and 283 of its
+// points with none in common; averaged with the kept links, all four within
+// 0.34 degrees and 0.16 spreads.)
 std::vector<int> FindRejectedLinksJoiningParts(
     const std::vector<RejectedSimilarity>& rejected_similarities,
     const SimilarityAveragingResult& averaging,
