@@ -173,12 +173,14 @@ class CommunityMapperController : public BaseController {
     // the loop there. False: every rejected similarity's pairs are left out.
     bool confirm_rejected_links = true;
 
-    // The bounds that confirm a rejected similarity grow with the drift the
-    // links between its communities may have accumulated: times the square
-    // root of the number of links on the path (their effective resistance),
-    // at most this factor (1: the averaging's bounds alone). Two identical
-    // facades matched onto each other lie several spreads apart.
-    double rejected_link_max_drift_factor = 2.0;
+    // The rotation and translation bounds that confirm a rejected
+    // similarity grow with the drift the links between its communities may
+    // have accumulated: times the square root of the number of links on the
+    // path (their effective resistance), at most this factor (1: the
+    // averaging's bounds alone). Two identical facades matched onto each
+    // other lie several spreads apart; a facade of repeated windows matched
+    // one period off, a fraction of a spread (see community_alignment.h).
+    double rejected_link_max_drift_factor = 1.5;
 
     // Where a community that the averaging left in a part apart has two
     // rejected similarities to two different communities of another part,
@@ -187,7 +189,12 @@ class CommunityMapperController : public BaseController {
     // keeps both, and every link it kept before, without sending any
     // community out of the merge, the two parts are one (the similarities'
     // pairs stay in the refinement); otherwise the first averaging stands.
-    bool join_parts_by_rejected_links = true;
+    // Off by default: an identical building whose photographs fell into two
+    // communities can place a community alike twice (community_alignment.h),
+    // and a wrong merge is worse than two models. On South Building resized
+    // to 384 px it joined a community cut off by the check (one model of
+    // 128 images instead of 100 + 28).
+    bool join_parts_by_rejected_links = false;
 
     // What makes a community's own model doubtful.
     CommunityJudgementOptions judgement;

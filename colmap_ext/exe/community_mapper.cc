@@ -673,16 +673,17 @@ void ParseCommand(int argc,
       "stay in the refinement (0: they are left out)");
   add("rejected_link_max_drift_factor",
       &mapper_options.rejected_link_max_drift_factor,
-      "the residual bounds that confirm a rejected similarity grow as the "
-      "square root of the number of links that join its communities (the "
-      "drift they may have accumulated), at most by this factor (1: the "
-      "bounds alone)");
+      "the rotation and translation bounds that confirm a rejected "
+      "similarity grow as the square root of the number of links that join "
+      "its communities (the drift they may have accumulated), at most by "
+      "this factor (1: the bounds alone)");
   add("join_parts_by_rejected_links",
       &mapper_options.join_parts_by_rejected_links,
       "two rejected similarities from one community to two communities of "
       "another part, on different points of it, join the parts if the "
-      "averaging with them keeps them and every link it kept before (0: "
-      "never)");
+      "averaging with them keeps them and every link as before (off by "
+      "default: an identical building photographed in two communities could "
+      "be stacked onto it)");
   add("max_rotation_residual_deg",
       &mapper_options.similarity_averaging.max_rotation_residual_deg,
       "drop a pairwise similarity whose rotation residual after averaging "

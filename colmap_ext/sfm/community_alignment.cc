@@ -409,7 +409,6 @@ bool MergeResiduals::WithinBounds(const SimilarityAveragingOptions& bounds,
   const double factor = DriftFactor(max_drift_factor);
   SimilarityAveragingOptions scaled = bounds;
   scaled.max_rotation_residual_deg *= factor;
-  scaled.max_log_scale_residual *= factor;
   scaled.max_relative_translation_residual *= factor;
   return EdgeWithinBounds(report, scaled);
 }
@@ -437,10 +436,18 @@ MergeResiduals ResidualsAgainstMerge(
 }
 
 std::vector<int> FindRejectedLinksJoiningParts(
+    const std::vector<RelativeSimilarity>& similarities,
     const std::vector<RejectedSimilarity>& rejected_similarities,
     const SimilarityAveragingResult& averaging,
     const double max_shared_support) {
-  // The strongest rejected transform of each community pair between parts.
+  // Pairs that have a similarity the check passed (kept or not) keep it.
+  std::set<std::pair<int, int>> with_similarity;
+  for (const RelativeSimilarity& similarity : similarities) {
+    with_similarity.insert(
+        std::minmax(similarity.community1, similarity.community2));
+  }
+  // The strongest rejected transform of each other community pair between
+  // parts.
   std::map<std::pair<int, int>, int> strongest;
   for (size_t r = 0; r < rejected_similarities.size(); ++r) {
     const RelativeSimilarity& similarity = rejected_similarities[r].similarity;
@@ -450,7 +457,8 @@ std::vector<int> FindRejectedLinksJoiningParts(
         std::max(c1, c2) >=
             static_cast<int>(averaging.part_of_community.size()) ||
         averaging.excluded[c1] || averaging.excluded[c2] ||
-        averaging.part_of_community[c1] == averaging.part_of_community[c2]) {
+        averaging.part_of_community[c1] == averaging.part_of_community[c2] ||
+        with_similarity.count(std::minmax(c1, c2)) > 0) {
       continue;
     }
     const auto inserted = strongest.emplace(std::minmax(c1, c2), r);
@@ -489,8 +497,7 @@ std::vector<int> FindRejectedLinksJoiningParts(
       for (size_t j = i + 1; j < group_links.size(); ++j) {
         const Link& a = group_links[i];
         const Link& b = group_links[j];
-        if (a.other_community == b.other_community || a.support.empty() ||
-            b.support.empty()) {
+        if (a.support.empty() || b.support.empty()) {
           continue;
         }
         const Link& smaller = a.support.size() <= b.support.size() ? a : b;
@@ -534,8 +541,8 @@ bool JoinPartsByRejectedLinks(
   if (averaging->NumParts() < 2) {
     return false;
   }
-  const std::vector<int> candidates =
-      FindRejectedLinksJoiningParts(rejected_similarities, *averaging);
+  const std::vector<int> candidates = FindRejectedLinksJoiningParts(
+      *similarities, rejected_similarities, *averaging);
   if (candidates.empty()) {
     return false;
   }
@@ -545,12 +552,13 @@ bool JoinPartsByRejectedLinks(
   }
   SimilarityAveragingResult result =
       AverageSimilarities(communities, extended, options);
+  // Every link keeps its fate (a dropped one that the new links put on a
+  // cycle would join parts too, unannounced), every new one is kept.
   bool accepted = result.NumParts() < averaging->NumParts() &&
                   result.excluded == averaging->excluded;
   for (size_t e = 0; e < extended.size(); ++e) {
-    if (e >= similarities->size() || averaging->edges[e].kept) {
-      accepted = accepted && result.edges[e].kept;
-    }
+    accepted = accepted && result.edges[e].kept == (e >= similarities->size() ||
+                                                    averaging->edges[e].kept);
   }
   LOG(INFO) << StringPrintf(
       "Averaged again with %d rejected similarities that may join parts: %d "

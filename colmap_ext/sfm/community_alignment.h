@@ -98,13 +98,17 @@ CommunitySimilarities EstimateCommunitySimilarities(
 //
 // Drift: each kept link places its communities within the bounds, and
 // independent errors along a path of k links add up to about sqrt(k) times
-// one link's (a random walk); over parallel paths, less. The bounds are
-// therefore scaled by the square root of the effective resistance between
-// the two communities in the graph of kept links (each link one unit: k on
-// a path of k links, k/2 on two parallel ones), between 1 and
-// `max_drift_factor`. South Building's link at 512 px was 1.8 degrees, 2.7%
-// in scale and 0.199 spreads off across a path of 3 links (bounds 5, 0.2
-// and 0.2 unscaled; 8.7, 0.35 and 0.35 scaled).
+// one link's (a random walk); over parallel paths, less. The rotation and
+// translation bounds are therefore scaled by the square root of the
+// effective resistance between the two communities in the graph of kept
+// links (each link one unit: k on a path of k links, 1 over two parallel
+// paths of 2; 1 where the kept links do not connect them), between 1 and
+// `max_drift_factor`; the scale bound (22%) is not. The factor is capped
+// low: a facade of repeated windows matched one period off lies a period
+// from the right place, a third of a spread where the matches span ten
+// periods. South Building's link at 512 px was 1.8 degrees, 2.7% in scale
+// and 0.199 spreads off across a path of 3 links (bounds 5 degrees and 0.2
+// spreads unscaled, 7.5 and 0.3 with the default factor 1.5).
 struct MergeResiduals {
   // Whether the averaging put both communities in one part (neither left
   // the merge); `report` and `path_resistance` are only set then.
@@ -116,8 +120,8 @@ struct MergeResiduals {
   // the averaging's kept links, each link a unit resistance.
   double path_resistance = 0.0;
 
-  // The factor the bounds are scaled by: sqrt(path_resistance) clamped to
-  // [1, max_drift_factor].
+  // The factor the rotation and translation bounds are scaled by:
+  // sqrt(path_resistance) clamped to [1, max_drift_factor].
   double DriftFactor(double max_drift_factor) const;
   bool WithinBounds(const SimilarityAveragingOptions& bounds,
                     double max_drift_factor = 1.0) const;
@@ -135,18 +139,23 @@ MergeResiduals ResidualsAgainstMerge(
 // has rejected transforms to two different communities a and b of one other
 // part, each a bridge alone that nothing can confirm, the two together close
 // a cycle through the part, and averaging them with the kept links tells
-// whether c sits where both place it. Repeated structure can place c alike
-// twice only where both transforms rest on the same structure of c (its
-// tower matched onto one tower that a and b both see): the two must rest on
+// whether c sits where both place it. Repeated structure places c alike
+// twice where both transforms rest on the same structure of c (its tower
+// matched onto one tower that a and b both see): the two must rest on
 // different points of c, at most `max_shared_support` of the smaller
-// support in common. Of several rejected transforms of one community pair,
-// only the one with the most inliers counts. Returns indices into
-// `rejected_similarities`, in order. (South Building resized to 384 px: a
-// community of 28 images between two others had rejected links to both,
-// 0 of 14 and 0 of 47 predicted pairs verified, on 160 and 283 of its
-// points with none in common; averaged with the kept links, all four within
-// 0.34 degrees and 0.16 spreads.)
+// support in common. That does not rule out a twin: a building matched onto
+// an identical one whose photographs fell into two communities, each
+// transform on another side of it; the controller leaves this rule off
+// unless asked (Options::join_parts_by_rejected_links). Of several rejected
+// transforms of one community pair, only the one with the most inliers counts,
+// and none of a pair that has a similarity in `similarities` (the check passed
+// it). Returns indices into `rejected_similarities`, in order. (South Building
+// resized to 384 px: a community of 28 images between two others had rejected
+// links to both, 0 of 14 and 0 of 47 predicted pairs verified, on 160 and 283
+// of its points with none in common; averaged with the kept links, all four
+// within 0.34 degrees and 0.16 spreads.)
 std::vector<int> FindRejectedLinksJoiningParts(
+    const std::vector<RelativeSimilarity>& similarities,
     const std::vector<RejectedSimilarity>& rejected_similarities,
     const SimilarityAveragingResult& averaging,
     double max_shared_support = 0.5);

@@ -388,10 +388,10 @@ TEST(ResidualsAgainstMerge, NothingConfirmsALinkBetweenParts) {
 }
 
 TEST(ResidualsAgainstMerge, BoundsGrowWithThePathsDrift) {
-  // The merge placed community 1 a third of a spread off the rejected
+  // The merge placed community 1 about a third of a spread off the rejected
   // transform: beyond the averaging's bound (0.2), within it grown for the
-  // drift of 3 links in a row (times sqrt(3)), not for 3 links of which
-  // parallel paths (2 + 2) bring the resistance down to 1.
+  // drift of 3 links in a row (times sqrt(3)), not over two parallel paths
+  // of 2 links (resistance 1).
   const Sim3d right(
       1.0, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
   const RejectedSimilarity rejected =
@@ -413,6 +413,16 @@ TEST(ResidualsAgainstMerge, BoundsGrowWithThePathsDrift) {
                                      /*max_drift_factor=*/2.0));
   // The factor is capped.
   EXPECT_NEAR(residuals.DriftFactor(1.5), 1.5, 1e-9);
+
+  // Scale drift is not: 30% off across the same 3 links stays rejected.
+  const Sim3d scaled(
+      1.3, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
+  averaging = TwoJoinedOneApart(scaled, &similarities, /*num_links=*/3);
+  const MergeResiduals scale_drift =
+      ResidualsAgainstMerge(rejected, similarities, averaging);
+  EXPECT_NEAR(scale_drift.report.log_scale_residual, std::log(1.3), 1e-9);
+  EXPECT_FALSE(scale_drift.WithinBounds(SimilarityAveragingOptions(),
+                                        /*max_drift_factor=*/2.0));
 
   averaging = TwoJoinedOneApart(
       drifted, &similarities, /*num_links=*/2, /*parallel=*/true);
@@ -461,35 +471,46 @@ TEST(FindRejectedLinksJoiningParts, TwoLinksOnDifferentPointsOfOneCommunity) {
   SimilarityAveragingResult averaging;
   averaging.part_of_community = {0, 0, 1, 0};
   averaging.excluded = {false, false, false, false};
-  // 2's points 100-139 matched into 0, its points 200-239 into 1: both; a
-  // weaker second transform of 2-0 is not.
+  const std::vector<RelativeSimilarity> none;
+  // 2's points 100-139 matched into 0, its points 200-239 into 1: both. A
+  // weaker second transform of 2-0, on 2's points 300-329, is not (only the
+  // strongest of a pair counts).
   std::vector<RejectedSimilarity> rejected = {
       RejectedWithSupport(2, 0, Ids(100, 40), 1000),
-      RejectedWithSupport(0, 2, Ids(1000, 30), 205),
+      RejectedWithSupport(0, 2, Ids(1000, 30), 300),
       RejectedWithSupport(1, 2, Ids(2000, 40), 200),
   };
-  EXPECT_EQ(FindRejectedLinksJoiningParts(rejected, averaging),
+  EXPECT_EQ(FindRejectedLinksJoiningParts(none, rejected, averaging),
             std::vector<int>({0, 2}));
+  // Not where the check passed a similarity of the pair (whatever the
+  // averaging made of it).
+  std::vector<RelativeSimilarity> passed(1);
+  passed[0].community1 = 0;
+  passed[0].community2 = 2;
+  EXPECT_TRUE(
+      FindRejectedLinksJoiningParts(passed, rejected, averaging).empty());
 
   // On the same points of 2 (its tower matched onto a tower that 0 and 1
   // both see): neither.
   rejected = {RejectedWithSupport(2, 0, Ids(100, 40), 1000),
               RejectedWithSupport(1, 2, Ids(2000, 40), 110)};
-  EXPECT_TRUE(FindRejectedLinksJoiningParts(rejected, averaging).empty());
+  EXPECT_TRUE(FindRejectedLinksJoiningParts(none, rejected, averaging).empty());
 
-  // One link alone (a bridge) or two to the same community: none.
+  // One link alone (a bridge), or two transforms of the same pair: none.
   rejected = {RejectedWithSupport(2, 0, Ids(100, 40), 1000)};
-  EXPECT_TRUE(FindRejectedLinksJoiningParts(rejected, averaging).empty());
+  EXPECT_TRUE(FindRejectedLinksJoiningParts(none, rejected, averaging).empty());
+  rejected = {RejectedWithSupport(2, 0, Ids(100, 40), 1000),
+              RejectedWithSupport(0, 2, Ids(1000, 30), 300)};
+  EXPECT_TRUE(FindRejectedLinksJoiningParts(none, rejected, averaging).empty());
   // Within one part (ResidualsAgainstMerge judges those): none.
   rejected = {RejectedWithSupport(0, 1, Ids(100, 40), 1000),
               RejectedWithSupport(0, 3, Ids(200, 40), 1000)};
-  EXPECT_TRUE(FindRejectedLinksJoiningParts(rejected, averaging).empty());
-  // Nor to a community that left the merge.
-  averaging.excluded[1] = true;
-  averaging.part_of_community = {0, 2, 1, 0};
+  EXPECT_TRUE(FindRejectedLinksJoiningParts(none, rejected, averaging).empty());
+  // Nor for a community that left the merge.
   rejected = {RejectedWithSupport(2, 0, Ids(100, 40), 1000),
               RejectedWithSupport(1, 2, Ids(2000, 40), 200)};
-  EXPECT_TRUE(FindRejectedLinksJoiningParts(rejected, averaging).empty());
+  averaging.excluded[2] = true;
+  EXPECT_TRUE(FindRejectedLinksJoiningParts(none, rejected, averaging).empty());
 }
 
 // A link of communities c1 and c2 placed by `world_from_community`: its
@@ -600,6 +621,24 @@ TEST(JoinPartsByRejectedLinks, JoinsWhereBothRejectedLinksAgree) {
   EXPECT_EQ(similarities.size(), 2);
   EXPECT_EQ(averaging.NumParts(), 2);
   EXPECT_EQ(averaging.edges.size(), 2);
+
+  // A weak link 2-3 that the first averaging dropped (a bridge nothing
+  // confirms) would be kept on the new cycle: it would join the parts
+  // unannounced, so nothing changes.
+  similarities = kept;
+  similarities.push_back(
+      Link(2, 3, world_from_community, Eigen::Vector3d(0, 2, 1), 4000));
+  similarities.back().num_inliers = 30;
+  averaging = AverageSimilarities(communities, similarities, options);
+  ASSERT_EQ(averaging.NumParts(), 2);
+  ASSERT_FALSE(averaging.edges[2].kept);
+  EXPECT_FALSE(JoinPartsByRejectedLinks(communities,
+                                        rejected_links(Sim3d()),
+                                        options,
+                                        &similarities,
+                                        &averaging,
+                                        &joined));
+  EXPECT_EQ(similarities.size(), 3);
 }
 
 }  // namespace
