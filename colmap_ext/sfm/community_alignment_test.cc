@@ -513,29 +513,24 @@ TEST(FindRejectedLinksJoiningParts, TwoLinksOnDifferentPointsOfOneCommunity) {
   EXPECT_TRUE(FindRejectedLinksJoiningParts(none, rejected, averaging).empty());
 }
 
-// A link of communities c1 and c2 placed by `world_from_community`: its
-// inliers 200 points around `center` in c1's frame, with point ids from
+// A link of communities c1 and c2 placed by `world_from_community`: the
+// inliers of Rejected() around `center` in c1's frame, with point ids from
 // `first_id` in both models.
 RelativeSimilarity Link(const int c1,
                         const int c2,
                         const std::vector<Sim3d>& world_from_community,
                         const Eigen::Vector3d& center,
                         const point3D_t first_id) {
-  RelativeSimilarity link;
-  link.community1 = c1;
-  link.community2 = c2;
-  link.second_from_first =
-      Inverse(world_from_community[c2]) * world_from_community[c1];
-  std::mt19937 rng(first_id);
-  std::uniform_real_distribution<double> uniform(-1, 1);
-  for (int i = 0; i < 200; ++i) {
-    const Eigen::Vector3d x1 =
-        center + Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng));
-    link.points1.push_back(x1);
-    link.points2.push_back(link.second_from_first * x1);
+  RelativeSimilarity link =
+      Rejected(c1,
+               c2,
+               Inverse(world_from_community[c2]) * world_from_community[c1],
+               center)
+          .similarity;
+  for (size_t i = 0; i < link.points1.size(); ++i) {
     link.point3D_ids.emplace_back(first_id + i, first_id + i);
   }
-  link.num_inliers = 200;
+  link.num_inliers = static_cast<double>(link.points1.size());
   return link;
 }
 
