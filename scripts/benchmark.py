@@ -32,6 +32,11 @@ Scenes (default: small medium):
     southbuilding512       the same photographs with SIFT run at 512 px
     southbuilding384       or 384 px (SiftExtraction.max_image_size; 10
                            and 6 minutes)
+    castle_split,          castle and herzjesu (their cached databases) with
+    herzjesu_split         community_mapper splitting them anyway (inlier
+                           weights, communities of 8 or more images): the
+                           merge against survey ground truth; the group
+                           `strecha_split` runs both
   South Building with part of its photographs left out at random (the
   cached database with the other images deleted; scenes nobody tuned for:
   weaker loops, communities joined by few or wrong matches):
@@ -63,7 +68,13 @@ OUT/results.csv, and PNG plots (wall time against images; top-down camera
 centres of every method after alignment, beside the ground truth, coloured
 by community for community_mapper). Camera errors: median, 90th percentile
 and mean, and the images on which a method's camera is closer to the ground
-truth than colmap mapper's (of those both registered). Ratios against the
+truth than colmap mapper's (of those both registered). Where community_mapper
+made several communities, a second table takes each community's own images
+and gives their median error in the community's own model and in every
+method's model, each aligned on those images alone: it tells a merge that
+bent its communities (the merged model behind the community's own model)
+from one that placed them badly against each other (as good on every
+community, behind on the whole scene). Ratios against the
 peers are computed within the same run: the machines are shared and noisy,
 so absolute seconds are only context. `--methods` runs a subset (e.g.
 without mapper on the large scene, where it takes hours); ratios to a method
@@ -132,7 +143,13 @@ COMMON = dict(keypoint_noise=0.7, outlier_match_ratio=0.05,
 
 SHARED_DATA = os.environ.get(
     "SHARED_DATA_DIR", os.path.join(os.path.dirname(ROOT), "shared", "data"))
-# Real photographs: folder under SHARED_DATA, and feature extraction.
+# community_mapper's flags that split a small scene without community
+# structure (the *_split scenes).
+SPLIT_FLAGS = ["--CommunityMapper.edge_weights", "num_inliers",
+               "--CommunityMapper.min_community_size", "8"]
+# Real photographs: folder under SHARED_DATA, feature extraction, and
+# optionally the scene whose cached database it shares and community_mapper
+# flags of its own.
 REAL = {
     "castle": dict(path="strecha/castle-P30", camera_model="PINHOLE",
                    max_num_features=8192),
@@ -151,6 +168,16 @@ REAL = {
     "southbuilding384": dict(path="south-building",
                              camera_model="SIMPLE_RADIAL",
                              max_num_features=4096, max_image_size=384),
+    # Strecha's sets split although their view graphs show no community
+    # structure (inlier weights, communities of 8 images or more), on the
+    # databases cached for castle and herzjesu: the merge at work on the
+    # only photographs here with survey ground truth.
+    "castle_split": dict(path="strecha/castle-P30", camera_model="PINHOLE",
+                         max_num_features=8192, cache="castle",
+                         community_flags=SPLIT_FLAGS),
+    "herzjesu_split": dict(path="strecha/Herz-Jesus-P25",
+                           camera_model="PINHOLE", max_num_features=8192,
+                           cache="herzjesu", community_flags=SPLIT_FLAGS),
 }
 # South Building subsets (see the docstring): name -> (fraction kept, seed).
 SUBSETS = {f"sb{round(100 * fraction)}_{seed}": (fraction, seed)
@@ -182,6 +209,7 @@ GROUPS = {
                 "southbuilding"],
     "sb_subsets": list(SUBSETS),
     "sb_sequences": ["sbseq5", "sbseq10", "sbseq20"],
+    "strecha_split": ["castle_split", "herzjesu_split"],
 }
 
 METHODS = ["mapper", "community", "hierarchical", "hier_fair"]
@@ -232,6 +260,54 @@ def evaluate(model_path, ground_truth_path, centers_path):
         key, value = line.split()
         figures[key] = float(value)
     return figures
+
+
+def subset_median_error(model_path, ground_truth_path, list_path):
+    """Median camera error of the images listed in `list_path` in the model,
+    aligned on them alone (NaN where they cannot be aligned)."""
+    output = subprocess.run(
+        [MODEL_EVALUATOR, "--model_path", model_path,
+         "--ground_truth_path", ground_truth_path,
+         "--image_list_path", list_path],
+        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True).stdout
+    for line in output.splitlines():
+        key, value = line.split()
+        if key == "median_position_error":
+            return float(value)
+    return float("nan")
+
+
+def per_community_errors(scene_dir, ground_truth, methods):
+    """For every community of the community_mapper run in scene_dir: its own
+    images (communities.txt) and the median error of their cameras in the
+    community's own model and in every method's model, each aligned on those
+    images alone. Where the merged model is behind the communities' own
+    models on their images, the merge bent them; where it is as good there
+    but behind on the whole scene, the communities' placement (the joints)
+    holds the error. Returns [(community, images, {"own": error, method:
+    error, ...})]."""
+    run_dir = os.path.join(scene_dir, "community")
+    communities_path = os.path.join(run_dir, "communities.txt")
+    if not os.path.exists(communities_path):
+        return []
+    members = {}
+    for name, community in read_communities(communities_path).items():
+        members.setdefault(community, []).append(name)
+    if len(members) < 2:
+        return []
+    rows = []
+    for community, names in sorted(members.items()):
+        list_path = os.path.join(scene_dir, f"community{community}_images.txt")
+        with open(list_path, "w") as file:
+            file.write("".join(name + "\n" for name in sorted(names)))
+        errors = {"own": subset_median_error(
+            os.path.join(run_dir, "communities", str(community)),
+            ground_truth, list_path)}
+        for method in methods:
+            errors[method] = subset_median_error(
+                os.path.join(scene_dir, method), ground_truth, list_path)
+        rows.append((community, len(names), errors))
+    return rows
 
 
 def read_communities(path):
@@ -336,11 +412,13 @@ def prepare_real_scene(name, out_dir):
     spec = REAL[name]
     data = os.path.join(SHARED_DATA, spec["path"])
     images = os.path.join(data, "images")
-    cache = os.path.join(out_dir, "cache", name)
+    cache = os.path.join(out_dir, "cache", spec.get("cache", name))
     database = os.path.join(cache, "database.db")
     knobs = dict(photos=spec["path"], camera_model=spec["camera_model"],
                  max_num_features=spec["max_num_features"],
                  matcher="exhaustive (CPU)")
+    if "community_flags" in spec:
+        knobs["community_mapper"] = " ".join(spec["community_flags"])
     extraction = ["--SiftExtraction.max_num_features",
                   str(spec["max_num_features"])]
     if "max_image_size" in spec:
@@ -483,7 +561,8 @@ def run_methods(name, scene_dir, database, images, ground_truth, num_images,
             command = [COLMAP, "mapper"] + common + \
                 ["--Mapper.num_threads", str(threads)]
         elif method == "community":
-            command = [COLMAP, "community_mapper"] + common
+            command = [COLMAP, "community_mapper"] + common + \
+                REAL.get(name, {}).get("community_flags", [])
         elif method == "hierarchical":
             command = [COLMAP, "hierarchical_mapper"] + common
         else:
@@ -526,6 +605,12 @@ def run_methods(name, scene_dir, database, images, ground_truth, num_images,
             f"{row['models']} model(s), median error "
             f"{row['median_pos_err']:.4f}")
         results[method] = row
+    if "community" in results:
+        results["community"]["per_community"] = " ".join(
+            f"{community}:{size}:" + "/".join(
+                f"{errors[key]:.4f}" for key in ["own"] + methods)
+            for community, size, errors in per_community_errors(
+                scene_dir, ground_truth, methods))
     nan = float("nan")
     errors = {method: center_errors(read_centers(
         os.path.join(scene_dir, method + "_centers.txt")))
@@ -608,6 +693,28 @@ def seeds_summary(scene_rows, seeds):
             "; ".join(parts))
 
 
+def per_community_section(scene_rows, seeds):
+    """The per-community errors (per_community_errors) of a scene's
+    community_mapper runs, as a table; none for a single community."""
+    methods = [row["method"] for row in scene_rows
+               if row["seed"] == seeds[0]]
+    lines = []
+    for row in scene_rows:
+        if row["method"] != "community" or not row.get("per_community"):
+            continue
+        if not lines:
+            lines += ["", "Each community's own images, each model aligned "
+                      "on them alone (median camera error):", "",
+                      "| seed | community | images | its own model | " +
+                      " | ".join(LABELS[method] for method in methods) +
+                      " |", "|" + "---|" * (4 + len(methods))]
+        for entry in row["per_community"].split():
+            community, size, errors = entry.split(":")
+            lines.append(f"| {row['seed']} | {community} | {size} | " +
+                         " | ".join(errors.split("/")) + " |")
+    return lines
+
+
 def markdown(rows, scene_knobs, seeds):
     lines = []
     for scene, knobs in scene_knobs.items():
@@ -668,6 +775,7 @@ def markdown(rows, scene_knobs, seeds):
                 texts.append(
                     f"{text}: {'yes' if num_held == len(seeds) else 'NO'} "
                     f"({num_held} of {len(seeds)} seeds)")
+        lines += per_community_section(scene_rows, seeds)
         lines.append("")
         lines.append("Bar: " + "; ".join(texts))
         if len(seeds) > 1:

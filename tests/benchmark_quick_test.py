@@ -124,9 +124,20 @@ def main():
                   "merge", "final_bundle_adjustment"):
         assert float(community[f"phase_{phase}_s"]) >= 0, phase
     assert int(community["communities"]) >= 2
+    # Every community's own images, measured in its own model and in every
+    # method's, each aligned on them alone; together they are the scene.
+    entries = [entry.split(":") for entry in community["per_community"].split()]
+    assert len(entries) == int(community["communities"]), entries
+    assert sum(int(size) for _, size, _ in entries) == int(community["images"])
+    for _, _, errors in entries:
+        values = [float(value) for value in errors.split("/")]
+        assert len(values) == 1 + len(methods), errors
+        assert all(math.isfinite(value) and value >= 0 for value in values), \
+            errors
     table = open(os.path.join(out, "results.md")).read()
     for text in ("colmap mapper", "colmap community_mapper",
-                 "time / mapper", "closer than mapper", "Bar:"):
+                 "time / mapper", "closer than mapper", "Bar:",
+                 "Each community's own images"):
         assert text in table, text
     for png in ("time_vs_images.png", "cameras_quick.png"):
         path = os.path.join(out, png)

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <unordered_set>
 
 namespace colmap {
 namespace {
@@ -45,7 +46,9 @@ ModelEvaluation EvaluateModel(const Reconstruction& model,
   evaluation.max_position_error = nan;
   evaluation.median_rotation_error_deg = nan;
 
-  // Shared registered images, by name.
+  // Shared registered images (of `options.image_names`), by name.
+  const std::unordered_set<std::string> selected(options.image_names.begin(),
+                                                 options.image_names.end());
   std::map<std::string, std::pair<const Image*, const Image*>> shared;
   Eigen::Vector3d min_corner =
       Eigen::Vector3d::Constant(std::numeric_limits<double>::max());
@@ -55,6 +58,9 @@ ModelEvaluation EvaluateModel(const Reconstruction& model,
     const Eigen::Vector3d center = gt_image.ProjectionCenter();
     min_corner = min_corner.cwiseMin(center);
     max_corner = max_corner.cwiseMax(center);
+    if (!selected.empty() && selected.count(gt_image.Name()) == 0) {
+      continue;
+    }
     const Image* model_image = model.FindImageWithName(gt_image.Name());
     if (model_image != nullptr && model_image->IsRegistered()) {
       shared.emplace(gt_image.Name(), std::make_pair(&gt_image, model_image));

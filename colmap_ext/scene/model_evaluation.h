@@ -22,6 +22,13 @@ struct ModelEvaluationOptions {
   // Inlier threshold of the robust alignment, as a fraction of the extent.
   double alignment_max_error_fraction = 0.05;
 
+  // Only these images (by name) are aligned and measured, e.g. one
+  // community's, to tell a merged model's error from its communities' own;
+  // empty: every image the model and the ground truth share. The extent
+  // stays the whole ground truth's; num_registered_images counts these
+  // images alone.
+  std::vector<std::string> image_names;
+
   bool Check() const;
 };
 

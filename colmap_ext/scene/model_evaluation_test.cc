@@ -4,6 +4,8 @@
 
 #include "colmap/math/math.h"
 
+#include <algorithm>
+
 #include <gtest/gtest.h>
 
 namespace colmap {
@@ -71,6 +73,44 @@ TEST(EvaluateModel, MeasuresPositionErrorsAfterAlignment) {
   EXPECT_NEAR(evaluation.extent, box.diagonal().norm(), 1e-9);
   EXPECT_EQ(evaluation.image_names.size(), 39);
   EXPECT_EQ(evaluation.aligned_centers.size(), 39);
+}
+
+// A model whose two halves are each right but placed 1 m apart: together
+// they are in error, each alone is not (a merged model judged against the
+// communities it was made of).
+TEST(EvaluateModel, SelectedImagesAreAlignedAlone) {
+  const Reconstruction ground_truth = GroundTruth();
+  Reconstruction model = ground_truth;
+  std::vector<image_t> image_ids = model.RegImageIds();
+  std::sort(image_ids.begin(), image_ids.end());
+  ModelEvaluationOptions first_half;
+  ModelEvaluationOptions second_half;
+  for (size_t i = 0; i < image_ids.size(); ++i) {
+    Image& image = model.Image(image_ids[i]);
+    if (i < image_ids.size() / 2) {
+      first_half.image_names.push_back(image.Name());
+      continue;
+    }
+    second_half.image_names.push_back(image.Name());
+    const Eigen::Vector3d center =
+        image.ProjectionCenter() + Eigen::Vector3d(0, 0, 1);
+    image.CamFromWorld().translation =
+        -(image.CamFromWorld().rotation * center);
+  }
+
+  const ModelEvaluation whole = EvaluateModel(model, ground_truth);
+  ASSERT_TRUE(whole.aligned);
+  EXPECT_GT(whole.median_position_error, 0.3);
+  for (const ModelEvaluationOptions& options : {first_half, second_half}) {
+    const ModelEvaluation half = EvaluateModel(model, ground_truth, options);
+    EXPECT_EQ(half.num_registered_images, 20);
+    std::vector<std::string> names = options.image_names;
+    std::sort(names.begin(), names.end());
+    EXPECT_EQ(half.image_names, names);
+    ASSERT_TRUE(half.aligned);
+    EXPECT_LT(half.max_position_error, 1e-6);
+    EXPECT_NEAR(half.extent, whole.extent, 1e-9);
+  }
 }
 
 TEST(EvaluateModel, TooFewImagesAreNotAligned) {

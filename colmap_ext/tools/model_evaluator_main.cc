@@ -7,7 +7,9 @@
 // most registered images is evaluated and the number of models reported.
 // Prints "key value" lines (see model_evaluation.h), to stdout and, with
 // --output_path, to a file; --aligned_centers_path writes the aligned and
-// true camera centres.
+// true camera centres. --image_list_path (one image name per line, as
+// COLMAP's image lists) aligns and measures those images alone, e.g. one
+// community's in a merged model.
 
 #include "colmap_ext/scene/model_evaluation.h"
 #include "colmap_ext/util/atomic_output.h"
@@ -26,6 +28,7 @@ int RunModelEvaluator(int argc, char** argv) {
   std::string ground_truth_path;
   std::string output_path;
   std::string aligned_centers_path;
+  std::string image_list_path;
   ModelEvaluationOptions evaluation_options;
 
   OptionManager options(/*add_project_options=*/false);
@@ -33,6 +36,7 @@ int RunModelEvaluator(int argc, char** argv) {
   options.AddRequiredOption("ground_truth_path", &ground_truth_path);
   options.AddDefaultOption("output_path", &output_path);
   options.AddDefaultOption("aligned_centers_path", &aligned_centers_path);
+  options.AddDefaultOption("image_list_path", &image_list_path);
   options.AddDefaultOption("alignment_max_error_fraction",
                            &evaluation_options.alignment_max_error_fraction);
   options.Parse(argc, argv);
@@ -50,6 +54,19 @@ int RunModelEvaluator(int argc, char** argv) {
       if (IsModelDir(JoinPaths(model_path, std::to_string(i)))) {
         model_dirs.push_back(JoinPaths(model_path, std::to_string(i)));
       }
+    }
+  }
+
+  if (!image_list_path.empty()) {
+    if (!ExistsFile(image_list_path)) {
+      LOG(ERROR) << "No image list at --image_list_path " << image_list_path;
+      return EXIT_FAILURE;
+    }
+    evaluation_options.image_names = ReadTextFileLines(image_list_path);
+    if (evaluation_options.image_names.empty()) {
+      LOG(ERROR) << "The image list " << image_list_path
+                 << " names no image: give one name per line";
+      return EXIT_FAILURE;
     }
   }
 
