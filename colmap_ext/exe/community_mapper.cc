@@ -666,6 +666,18 @@ void ParseCommand(int argc,
       "reject a similarity under which the image pairs it makes co-visible "
       "across the communities were verified less often than this fraction of "
       "the rate inside them (0: no check)");
+  add("covisibility_close_ray_angle_deg",
+      &mapper_options.covisibility_check.close_ray_angle_deg,
+      "image pairs whose rays to their common points are on average at most "
+      "this many degrees apart are close views: a similarity under which "
+      "such pairs across the communities went unmatched is refuted by them, "
+      "not by wide views alone, and cannot join parts "
+      "(join_parts_by_rejected_links)");
+  add("covisibility_min_close_rate_ratio",
+      &mapper_options.covisibility_check.min_close_rate_ratio,
+      "close views across refute a similarity where they were verified "
+      "less often than this fraction of the rate of close views inside the "
+      "communities");
   add("confirm_rejected_links",
       &mapper_options.confirm_rejected_links,
       "a similarity the co-visibility check rejected whose inliers the merge "
@@ -680,10 +692,9 @@ void ParseCommand(int argc,
   add("join_parts_by_rejected_links",
       &mapper_options.join_parts_by_rejected_links,
       "two rejected similarities from one community to two communities of "
-      "another part, on different points of it, join the parts if the "
-      "averaging with them keeps them and every link as before (off by "
-      "default: an identical building photographed in two communities could "
-      "be stacked onto it)");
+      "another part, on different points of it and refused by wide views "
+      "alone (no close views left unmatched), join the parts if the "
+      "averaging with them keeps them and every link as before");
   add("max_rotation_residual_deg",
       &mapper_options.similarity_averaging.max_rotation_residual_deg,
       "drop a pairwise similarity whose rotation residual after averaging "

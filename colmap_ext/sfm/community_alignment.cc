@@ -140,15 +140,22 @@ PairOutcome EstimatePairSimilarity(
           RejectedSimilarity rejected_similarity;
           rejected_similarity.similarity =
               ToRelativeSimilarity(community1, community2, candidate);
+          rejected_similarity.close_views_unmatched =
+              covisibility.close_views_unmatched;
           outcome.rejected.push_back(std::move(rejected_similarity));
           rejected += StringPrintf(
               " [%d inliers rejected: co-visible pairs verified %d of %d "
-              "across, %d of %d inside]",
+              "across, %d of %d inside; close views %d of %d across, %d of "
+              "%d inside]",
               candidate.num_inliers,
               covisibility.num_verified_cross_pairs,
               covisibility.num_predicted_cross_pairs,
               covisibility.num_verified_internal_pairs,
-              covisibility.num_predicted_internal_pairs);
+              covisibility.num_predicted_internal_pairs,
+              covisibility.num_verified_close_cross_pairs,
+              covisibility.num_predicted_close_cross_pairs,
+              covisibility.num_verified_close_internal_pairs,
+              covisibility.num_predicted_close_internal_pairs);
         }
         return covisibility.consistent;
       },
@@ -476,8 +483,12 @@ std::vector<int> FindRejectedLinksJoiningParts(
   };
   std::map<std::pair<int, int>, std::vector<Link>> links;
   for (const auto& pair_and_index : strongest) {
-    const RelativeSimilarity& similarity =
-        rejected_similarities[pair_and_index.second].similarity;
+    const RejectedSimilarity& rejected =
+        rejected_similarities[pair_and_index.second];
+    if (rejected.close_views_unmatched) {
+      continue;
+    }
+    const RelativeSimilarity& similarity = rejected.similarity;
     for (const bool first : {true, false}) {
       const int c = first ? similarity.community1 : similarity.community2;
       const int other = first ? similarity.community2 : similarity.community1;

@@ -496,6 +496,13 @@ TEST(FindRejectedLinksJoiningParts, TwoLinksOnDifferentPointsOfOneCommunity) {
               RejectedWithSupport(1, 2, Ids(2000, 40), 110)};
   EXPECT_TRUE(FindRejectedLinksJoiningParts(none, rejected, averaging).empty());
 
+  // On different points, but one of them refuted by close views (a twin
+  // building matched side by side onto one that 0 and 1 both see): neither.
+  rejected = {RejectedWithSupport(2, 0, Ids(100, 40), 1000),
+              RejectedWithSupport(1, 2, Ids(2000, 40), 200)};
+  rejected[1].close_views_unmatched = true;
+  EXPECT_TRUE(FindRejectedLinksJoiningParts(none, rejected, averaging).empty());
+
   // One link alone (a bridge), or two transforms of the same pair: none.
   rejected = {RejectedWithSupport(2, 0, Ids(100, 40), 1000)};
   EXPECT_TRUE(FindRejectedLinksJoiningParts(none, rejected, averaging).empty());

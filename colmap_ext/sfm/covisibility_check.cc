@@ -82,7 +82,8 @@ std::vector<ImageView> ImageViews(const Reconstruction& reconstruction,
 // most `max_ray_angle` apart.
 int NumVisiblePoints(const ImageView& view,
                      const ImageView& other,
-                     const double min_cos_ray_angle) {
+                     const double min_cos_ray_angle,
+                     double* sum_ray_angles) {
   // Depth slack before a point counts as hidden behind a seen surface.
   constexpr double kMaxDepthRatio = 1.25;
   int num_visible = 0;
@@ -104,21 +105,74 @@ int NumVisiblePoints(const ImageView& view,
     }
     const Eigen::Vector3d ray = (point - view.center).normalized();
     const Eigen::Vector3d other_ray = (point - other.center).normalized();
-    if (ray.dot(other_ray) < min_cos_ray_angle) {
+    const double cos_ray_angle = ray.dot(other_ray);
+    if (cos_ray_angle < min_cos_ray_angle) {
       continue;
     }
+    *sum_ray_angles += std::acos(std::min(1.0, cos_ray_angle));
     ++num_visible;
   }
   return num_visible;
 }
 
-bool PredictedCovisible(const ImageView& view1,
-                        const ImageView& view2,
-                        const CovisibilityCheckOptions& options) {
+// How a pair of images is predicted to see the other's points.
+enum class Covisibility { kNone, kWideViews, kCloseViews };
+
+// Co-visible where each sees at least `min_num_points` of the other's
+// points; close views where their rays to those points are on average at
+// most `close_ray_angle_deg` apart.
+Covisibility PredictCovisibility(const ImageView& view1,
+                                 const ImageView& view2,
+                                 const CovisibilityCheckOptions& options) {
   const double min_cos = std::cos(DegToRad(options.max_ray_angle_deg));
-  return NumVisiblePoints(view1, view2, min_cos) >= options.min_num_points &&
-         NumVisiblePoints(view2, view1, min_cos) >= options.min_num_points;
+  double sum_ray_angles = 0;
+  const int num_visible1 =
+      NumVisiblePoints(view1, view2, min_cos, &sum_ray_angles);
+  if (num_visible1 < options.min_num_points) {
+    return Covisibility::kNone;
+  }
+  const int num_visible2 =
+      NumVisiblePoints(view2, view1, min_cos, &sum_ray_angles);
+  if (num_visible2 < options.min_num_points) {
+    return Covisibility::kNone;
+  }
+  const double mean_ray_angle = sum_ray_angles / (num_visible1 + num_visible2);
+  return mean_ray_angle <= DegToRad(options.close_ray_angle_deg)
+             ? Covisibility::kCloseViews
+             : Covisibility::kWideViews;
 }
+
+// Predicted co-visible and verified pairs, and the close views among them.
+struct PairCounts {
+  int num_predicted = 0;
+  int num_verified = 0;
+  int num_predicted_close = 0;
+  int num_verified_close = 0;
+
+  // Counts the pair if the matcher compared it (every pair, without
+  // `is_compared_pair`) and it is predicted co-visible.
+  void Add(const ImageView& view1,
+           const ImageView& view2,
+           const std::function<bool(image_t, image_t)>& is_verified_pair,
+           const std::function<bool(image_t, image_t)>& is_compared_pair,
+           const CovisibilityCheckOptions& options) {
+    if (is_compared_pair && !is_compared_pair(view1.image_id, view2.image_id)) {
+      return;
+    }
+    const Covisibility covisibility =
+        PredictCovisibility(view1, view2, options);
+    if (covisibility == Covisibility::kNone) {
+      return;
+    }
+    const bool verified = is_verified_pair(view1.image_id, view2.image_id);
+    ++num_predicted;
+    num_verified += verified;
+    if (covisibility == Covisibility::kCloseViews) {
+      ++num_predicted_close;
+      num_verified_close += verified;
+    }
+  }
+};
 
 // The given quantile of the centre distances of the verified pairs among
 // `views`; 0 if there are none.
@@ -144,14 +198,6 @@ double VerifiedPairDistanceQuantile(
   return distances[k];
 }
 
-// Whether the matcher compared the two images (every pair, without
-// `is_compared_pair`).
-bool IsCompared(const std::function<bool(image_t, image_t)>& is_compared_pair,
-                const ImageView& view1,
-                const ImageView& view2) {
-  return !is_compared_pair || is_compared_pair(view1.image_id, view2.image_id);
-}
-
 // Predicted co-visible and verified pairs among the near pairs of `views`,
 // at most `max_num_pairs` of them (evenly chosen).
 void CountInternalPairs(
@@ -160,8 +206,7 @@ void CountInternalPairs(
     const std::function<bool(image_t, image_t)>& is_verified_pair,
     const std::function<bool(image_t, image_t)>& is_compared_pair,
     const CovisibilityCheckOptions& options,
-    int* num_predicted,
-    int* num_verified) {
+    PairCounts* counts) {
   std::vector<std::pair<int, int>> near_pairs;
   for (size_t i = 0; i < views.size(); ++i) {
     for (size_t j = i + 1; j < views.size(); ++j) {
@@ -175,11 +220,7 @@ void CountInternalPairs(
   for (size_t k = 0; k < near_pairs.size(); k += step) {
     const ImageView& view1 = views[near_pairs[k].first];
     const ImageView& view2 = views[near_pairs[k].second];
-    if (IsCompared(is_compared_pair, view1, view2) &&
-        PredictedCovisible(view1, view2, options)) {
-      ++*num_predicted;
-      *num_verified += is_verified_pair(view1.image_id, view2.image_id);
-    }
+    counts->Add(view1, view2, is_verified_pair, is_compared_pair, options);
   }
 }
 
@@ -195,6 +236,10 @@ bool CovisibilityCheckOptions::Check() const {
   CHECK_OPTION_GT(max_num_internal_pairs, 0);
   CHECK_OPTION_GE(min_rate_ratio, 0);
   CHECK_OPTION_GE(min_num_predicted_pairs, 1);
+  CHECK_OPTION_GE(close_ray_angle_deg, 0);
+  CHECK_OPTION_LE(close_ray_angle_deg, max_ray_angle_deg);
+  CHECK_OPTION_GE(min_close_rate_ratio, 0);
+  CHECK_OPTION_LE(min_close_rate_ratio, 1);
   return true;
 }
 
@@ -237,21 +282,21 @@ CovisibilityCheck CheckCovisibility(
     return check;
   }
 
-  CountInternalPairs(views1,
-                     max_distance,
-                     is_verified_pair,
-                     is_compared_pair,
-                     options,
-                     &check.num_predicted_internal_pairs,
-                     &check.num_verified_internal_pairs);
-  CountInternalPairs(views2,
-                     max_distance,
-                     is_verified_pair,
-                     is_compared_pair,
-                     options,
-                     &check.num_predicted_internal_pairs,
-                     &check.num_verified_internal_pairs);
+  PairCounts internal;
+  for (const std::vector<ImageView>* views : {&views1, &views2}) {
+    CountInternalPairs(*views,
+                       max_distance,
+                       is_verified_pair,
+                       is_compared_pair,
+                       options,
+                       &internal);
+  }
+  check.num_predicted_internal_pairs = internal.num_predicted;
+  check.num_verified_internal_pairs = internal.num_verified;
+  check.num_predicted_close_internal_pairs = internal.num_predicted_close;
+  check.num_verified_close_internal_pairs = internal.num_verified_close;
 
+  PairCounts cross;
   for (const ImageView& view1 : views1) {
     if (reconstruction2.ExistsImage(view1.image_id) &&
         reconstruction2.IsImageRegistered(view1.image_id)) {
@@ -263,18 +308,28 @@ CovisibilityCheck CheckCovisibility(
            reconstruction1.IsImageRegistered(view2.image_id))) {
         continue;
       }
-      if (IsCompared(is_compared_pair, view1, view2) &&
-          PredictedCovisible(view1, view2, options)) {
-        ++check.num_predicted_cross_pairs;
-        check.num_verified_cross_pairs +=
-            is_verified_pair(view1.image_id, view2.image_id);
-      }
+      cross.Add(view1, view2, is_verified_pair, is_compared_pair, options);
     }
   }
+  check.num_predicted_cross_pairs = cross.num_predicted;
+  check.num_verified_cross_pairs = cross.num_verified;
+  check.num_predicted_close_cross_pairs = cross.num_predicted_close;
+  check.num_verified_close_cross_pairs = cross.num_verified_close;
 
   check.consistent =
       check.num_predicted_cross_pairs < options.min_num_predicted_pairs ||
       check.CrossRate() >= options.min_rate_ratio * check.InternalRate();
+  const double close_internal_rate =
+      check.num_predicted_close_internal_pairs > 0
+          ? static_cast<double>(check.num_verified_close_internal_pairs) /
+                check.num_predicted_close_internal_pairs
+          : check.InternalRate();
+  check.close_views_unmatched = check.num_predicted_close_cross_pairs >=
+                                    options.min_num_predicted_pairs &&
+                                check.num_verified_close_cross_pairs <
+                                    options.min_close_rate_ratio *
+                                        close_internal_rate *
+                                        check.num_predicted_close_cross_pairs;
   return check;
 }
 

@@ -126,6 +126,13 @@ TEST_F(CheckCovisibilityTest, StackedLandmarksContradictTheMatches) {
   EXPECT_FALSE(check.consistent);
   EXPECT_GE(check.num_predicted_cross_pairs, 50);
   EXPECT_LT(check.CrossRate(), 0.1 * check.InternalRate());
+  // The stack puts the landmarks' cameras side by side: close views that
+  // the matcher, which matched nearly every close view inside the models,
+  // never matched.
+  EXPECT_TRUE(check.close_views_unmatched);
+  EXPECT_GE(check.num_predicted_close_cross_pairs, 10);
+  EXPECT_GT(check.num_verified_close_internal_pairs,
+            0.9 * check.num_predicted_close_internal_pairs);
 }
 
 TEST_F(CheckCovisibilityTest, PairsNeverComparedSayNothing) {
@@ -237,12 +244,36 @@ TEST(CheckCovisibility, PairsSeenUnderWideAnglesSayNothing) {
   EXPECT_GE(wide.num_predicted_cross_pairs, options.min_num_predicted_pairs);
   EXPECT_EQ(wide.num_verified_cross_pairs, 0);
   EXPECT_FALSE(wide.consistent);
+  // Refused by wide views alone: no close view across says it is wrong.
+  EXPECT_EQ(wide.num_predicted_close_cross_pairs, 0);
+  EXPECT_FALSE(wide.close_views_unmatched);
+  // Counting every pair as close, the same pairs would refute it, unless
+  // close views refute nothing.
+  options.close_ray_angle_deg = 60;
+  EXPECT_TRUE(CheckCovisibility(left,
+                                right,
+                                Sim3d(),
+                                is_verified,
+                                /*is_compared_pair=*/{},
+                                options)
+                  .close_views_unmatched);
+  options.min_close_rate_ratio = 0;
+  EXPECT_FALSE(CheckCovisibility(left,
+                                 right,
+                                 Sim3d(),
+                                 is_verified,
+                                 /*is_compared_pair=*/{},
+                                 options)
+                   .close_views_unmatched);
 }
 
 TEST(CovisibilityCheckOptions, Check) {
   CovisibilityCheckOptions options;
   EXPECT_TRUE(options.Check());
   options.max_distance_quantile = 0;
+  EXPECT_FALSE(options.Check());
+  options = CovisibilityCheckOptions();
+  options.close_ray_angle_deg = options.max_ray_angle_deg + 1;
   EXPECT_FALSE(options.Check());
 }
 
