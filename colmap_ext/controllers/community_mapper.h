@@ -189,15 +189,16 @@ class CommunityMapperController : public BaseController {
     // keeps both, and every link it kept before, without sending any
     // community out of the merge, the two parts are one (the similarities'
     // pairs stay in the refinement); otherwise the first averaging stands.
-    // Only similarities refused by wide views alone count: an identical
-    // building whose photographs fell into two communities can place a
-    // community alike twice, but it stacks the community's cameras beside
-    // theirs, and the close views it predicts go unmatched
-    // (CovisibilityCheckOptions::close_ray_angle_deg). On South Building
-    // resized to 384 px it joins a community cut off by the check (one model
-    // of 128 images instead of 100 + 28); on every other database measured
-    // it changes nothing (stop 44).
-    bool join_parts_by_rejected_links = true;
+    // Only similarities that the check refused by wide views alone count
+    // (no close view predicted across, CovisibilityCheckOptions::
+    // close_ray_angle_deg). Off by default: an identical building whose
+    // photographs fell into two communities, photographed from other places
+    // than its twin, can still place a community alike twice
+    // (community_alignment.h), and a wrong merge is worse than two models.
+    // On South Building resized to 384 px it joins a community cut off by
+    // the check (one model of 128 images instead of 100 + 28); on every
+    // other database measured it changes nothing (stop 44).
+    bool join_parts_by_rejected_links = false;
 
     // What makes a community's own model doubtful.
     CommunityJudgementOptions judgement;

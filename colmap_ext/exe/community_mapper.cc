@@ -669,15 +669,9 @@ void ParseCommand(int argc,
   add("covisibility_close_ray_angle_deg",
       &mapper_options.covisibility_check.close_ray_angle_deg,
       "image pairs whose rays to their common points are on average at most "
-      "this many degrees apart are close views: a similarity under which "
-      "such pairs across the communities went unmatched is refuted by them, "
-      "not by wide views alone, and cannot join parts "
-      "(join_parts_by_rejected_links)");
-  add("covisibility_min_close_rate_ratio",
-      &mapper_options.covisibility_check.min_close_rate_ratio,
-      "close views across refute a similarity where they were verified "
-      "less often than this fraction of the rate of close views inside the "
-      "communities");
+      "this many degrees apart are close views; a rejected similarity under "
+      "which close views across the communities were predicted cannot join "
+      "parts (join_parts_by_rejected_links)");
   add("confirm_rejected_links",
       &mapper_options.confirm_rejected_links,
       "a similarity the co-visibility check rejected whose inliers the merge "
@@ -693,8 +687,10 @@ void ParseCommand(int argc,
       &mapper_options.join_parts_by_rejected_links,
       "two rejected similarities from one community to two communities of "
       "another part, on different points of it and refused by wide views "
-      "alone (no close views left unmatched), join the parts if the "
-      "averaging with them keeps them and every link as before");
+      "alone (no close view predicted), join the parts if the averaging "
+      "with them keeps them and every link as before (off by default: an "
+      "identical building photographed in two communities could be stacked "
+      "onto it)");
   add("max_rotation_residual_deg",
       &mapper_options.similarity_averaging.max_rotation_residual_deg,
       "drop a pairwise similarity whose rotation residual after averaging "

@@ -140,8 +140,7 @@ PairOutcome EstimatePairSimilarity(
           RejectedSimilarity rejected_similarity;
           rejected_similarity.similarity =
               ToRelativeSimilarity(community1, community2, candidate);
-          rejected_similarity.close_views_unmatched =
-              covisibility.close_views_unmatched;
+          rejected_similarity.check = covisibility;
           outcome.rejected.push_back(std::move(rejected_similarity));
           rejected += StringPrintf(
               " [%d inliers rejected: co-visible pairs verified %d of %d "
@@ -485,7 +484,7 @@ std::vector<int> FindRejectedLinksJoiningParts(
   for (const auto& pair_and_index : strongest) {
     const RejectedSimilarity& rejected =
         rejected_similarities[pair_and_index.second];
-    if (rejected.close_views_unmatched) {
+    if (rejected.check.num_predicted_close_cross_pairs > 0) {
       continue;
     }
     const RelativeSimilarity& similarity = rejected.similarity;

@@ -53,9 +53,8 @@ struct RejectedSimilarity {
   RelativeSimilarity similarity;
   // The cross pairs whose matches mostly support it.
   std::vector<image_pair_t> pairs;
-  // Whether close views refuted it (CovisibilityCheck::
-  // close_views_unmatched), not wide views alone.
-  bool close_views_unmatched = false;
+  // The check that rejected it.
+  CovisibilityCheck check;
 };
 
 struct CommunitySimilarities {
@@ -146,19 +145,23 @@ MergeResiduals ResidualsAgainstMerge(
 // twice where both transforms rest on the same structure of c (its tower
 // matched onto one tower that a and b both see): the two must rest on
 // different points of c, at most `max_shared_support` of the smaller
-// support in common. Nor does a twin count: a building matched onto an
-// identical one whose photographs fell into two communities, each transform
-// on another side of it, places c alike twice too, but it stacks c's
-// cameras beside theirs, looking alike, and the pairs the matcher then left
-// unmatched are close views (close_views_unmatched); a transform refused
-// by wide views alone may join. Of several rejected transforms of one
-// community pair, only the one with the most inliers counts, and none of a
-// pair that has a similarity in `similarities` (the check passed it).
-// Returns indices into `rejected_similarities`, in order. (South Building
-// resized to 384 px: a community of 28 images between two others had
-// rejected links to both, 0 of 14 and 0 of 47 predicted pairs verified, all
-// wide views, on 160 and 283 of its points with none in common; averaged
-// with the kept links, all four within 0.34 degrees and 0.16 spreads.)
+// support in common, and each must have been rejected by wide views alone:
+// no close view predicted across (CovisibilityCheckOptions::
+// close_ray_angle_deg; every wrong rejected transform measured predicted
+// hundreds). That still does not rule out a twin: a building matched onto
+// an identical one whose photographs fell into two communities, each
+// transform on another side of it, photographed from other places than
+// its twin (no close views) or small in the frame; the controller leaves
+// this rule off unless asked (Options::join_parts_by_rejected_links). Of
+// several rejected transforms of one community pair, only the one with the
+// most inliers counts (if close views were predicted under it, the pair
+// offers none), and none of a pair that has a similarity in `similarities`
+// (the check passed it). Returns indices into `rejected_similarities`, in
+// order. (South Building resized to 384 px: a community of 28 images
+// between two others had rejected links to both, 0 of 14 and 0 of 47
+// predicted pairs verified, none a close view, on 160 and 283 of its points
+// with none in common; averaged with the kept links, all four within 0.34
+// degrees and 0.16 spreads.)
 std::vector<int> FindRejectedLinksJoiningParts(
     const std::vector<RelativeSimilarity>& similarities,
     const std::vector<RejectedSimilarity>& rejected_similarities,

@@ -496,12 +496,17 @@ TEST(FindRejectedLinksJoiningParts, TwoLinksOnDifferentPointsOfOneCommunity) {
               RejectedWithSupport(1, 2, Ids(2000, 40), 110)};
   EXPECT_TRUE(FindRejectedLinksJoiningParts(none, rejected, averaging).empty());
 
-  // On different points, but one of them refuted by close views (a twin
-  // building matched side by side onto one that 0 and 1 both see): neither.
+  // On different points, but one of them rejected with close views
+  // predicted across (as a stack of identical structure predicts them):
+  // neither. Nor a weaker transform of that pair in its place.
   rejected = {RejectedWithSupport(2, 0, Ids(100, 40), 1000),
-              RejectedWithSupport(1, 2, Ids(2000, 40), 200)};
-  rejected[1].close_views_unmatched = true;
+              RejectedWithSupport(1, 2, Ids(2000, 40), 200),
+              RejectedWithSupport(1, 2, Ids(3000, 20), 400)};
+  rejected[1].check.num_predicted_close_cross_pairs = 1;
   EXPECT_TRUE(FindRejectedLinksJoiningParts(none, rejected, averaging).empty());
+  rejected[1].check.num_predicted_close_cross_pairs = 0;
+  EXPECT_EQ(FindRejectedLinksJoiningParts(none, rejected, averaging),
+            std::vector<int>({0, 1}));
 
   // One link alone (a bridge), or two transforms of the same pair: none.
   rejected = {RejectedWithSupport(2, 0, Ids(100, 40), 1000)};

@@ -109,7 +109,7 @@ int NumVisiblePoints(const ImageView& view,
     if (cos_ray_angle < min_cos_ray_angle) {
       continue;
     }
-    *sum_ray_angles += std::acos(std::min(1.0, cos_ray_angle));
+    *sum_ray_angles += std::acos(std::max(-1.0, std::min(1.0, cos_ray_angle)));
     ++num_visible;
   }
   return num_visible;
@@ -238,8 +238,6 @@ bool CovisibilityCheckOptions::Check() const {
   CHECK_OPTION_GE(min_num_predicted_pairs, 1);
   CHECK_OPTION_GE(close_ray_angle_deg, 0);
   CHECK_OPTION_LE(close_ray_angle_deg, max_ray_angle_deg);
-  CHECK_OPTION_GE(min_close_rate_ratio, 0);
-  CHECK_OPTION_LE(min_close_rate_ratio, 1);
   return true;
 }
 
@@ -319,17 +317,6 @@ CovisibilityCheck CheckCovisibility(
   check.consistent =
       check.num_predicted_cross_pairs < options.min_num_predicted_pairs ||
       check.CrossRate() >= options.min_rate_ratio * check.InternalRate();
-  const double close_internal_rate =
-      check.num_predicted_close_internal_pairs > 0
-          ? static_cast<double>(check.num_verified_close_internal_pairs) /
-                check.num_predicted_close_internal_pairs
-          : check.InternalRate();
-  check.close_views_unmatched = check.num_predicted_close_cross_pairs >=
-                                    options.min_num_predicted_pairs &&
-                                check.num_verified_close_cross_pairs <
-                                    options.min_close_rate_ratio *
-                                        close_internal_rate *
-                                        check.num_predicted_close_cross_pairs;
   return check;
 }
 

@@ -35,9 +35,10 @@
 // tested, so the cost follows the images near the border, and drift far
 // from it does not matter. The close views among the pairs (rays to their
 // common points at most 20 degrees apart on average), which the matcher
-// seldom misses, are counted apart: left unmatched, they refute an alignment by themselves,
-// and only a rejection without them may be overruled by two rejected
-// links that agree (FindRejectedLinksJoiningParts, community_alignment.h).
+// seldom misses, are counted apart: a rejection under which none was
+// predicted rests on wide views alone, the only kind that two rejected
+// links agreeing may overrule (FindRejectedLinksJoiningParts,
+// community_alignment.h).
 
 #pragma once
 
@@ -96,28 +97,19 @@ struct CovisibilityCheckOptions {
   int min_num_predicted_pairs = 10;
 
   // Pairs whose rays to the points they would share are on average at most
-  // this many degrees apart are close views. Inside the models the matcher
-  // verified 94-100% of the close views predicted to see each other (South
-  // Building at 384, 512 and 1024 px; generated identical towers), but on
-  // the photographs only 58-84% of those at 30-45 degrees. Close views left
-  // unmatched across the models refute an alignment (stacked duplicates put
-  // one model's cameras beside the other's, looking alike); wide ones hardly
-  // do (low resolution, a corner, the light): right links that close South
-  // Building's walk at 384 px had 0 of 14 and 0 of 47 cross pairs verified,
-  // all at 20-45 degrees, while stacked identical towers left 1200 close
-  // views unmatched. See CovisibilityCheck::close_views_unmatched.
+  // this many degrees apart are close views, counted apart. Inside the
+  // models the matcher verified 94-100% of the close views predicted to see
+  // each other (South Building at 384, 512 and 1024 px; generated identical
+  // towers), but on the photographs 72-96% of the pairs at 20-30 degrees
+  // and 58-84% of those at 30-45: wide views go unmatched for want of
+  // resolution, at a corner or in another light. Every wrong rejected
+  // similarity measured predicted hundreds of close views across, nearly all
+  // unmatched (identical towers stacked: 14 of 1214 verified; South Building's
+  // facade matched flipped onto itself: 18 of 286 at 1024 px, 22 of 265 at 512
+  // px); the right ones that the check rejected predicted none or one (South
+  // Building at 384 px: 0 of 14 and 0 of 47 pairs verified, all wide; the loop
+  // closure at 512 px: 1 of 27, one close view, verified).
   double close_ray_angle_deg = 20.0;
-
-  // Close views across refute an alignment where they were verified at
-  // less than this fraction of the rate of close views inside the models.
-  // Stricter than `min_rate_ratio`: what the close views decide (parts
-  // joined by rejected links) must not rest on a doubtful rejection. South
-  // Building's facade matched flipped onto itself (a wrong link) had 18 of
-  // 286 close views verified across, the link that closes its walk at 512
-  // px (a right one, photographed at another hour) 22 of 265: the light can
-  // leave close views unmatched too, so close views refute, but their
-  // absence does not confirm.
-  double min_close_rate_ratio = 0.5;
 
   bool Check() const;
 };
@@ -140,12 +132,6 @@ struct CovisibilityCheck {
   // Whether the alignment explains the matches (true where there are too few
   // predicted pairs to tell).
   bool consistent = true;
-  // Whether the close views refute it by themselves: at least
-  // `min_num_predicted_pairs` predicted across, verified at less than
-  // `min_close_rate_ratio` times the rate of the close views inside the
-  // models (of all predicted pairs inside, where none is close). A
-  // rejection without it rests on wide views alone.
-  bool close_views_unmatched = false;
 };
 
 // `is_verified_pair(image_id1, image_id2)` tells whether the matcher
