@@ -254,28 +254,25 @@ TEST(CheckCovisibility, PairsSeenUnderWideAnglesSayNothing) {
 // degrees apart or more), the second by wide views alone (what a matcher at
 // low resolution leaves unmatched).
 TEST(CheckCovisibility, CloseViewsAreCountedApart) {
-  const auto is_verified = [](const image_t a, const image_t b) {
-    return (a < 100) == (b < 100);
-  };
   const CovisibilityCheckOptions options;
-  const CovisibilityCheck close = CheckCovisibility(WallSeenFrom(-6, 1),
-                                                    WallSeenFrom(6, 101),
-                                                    Sim3d(),
-                                                    is_verified,
-                                                    /*is_compared_pair=*/{},
-                                                    options);
+  // The groups at -tilt and +tilt degrees, each pair within a group matched.
+  const auto check_walls = [&options](const double tilt_deg) {
+    return CheckCovisibility(
+        WallSeenFrom(-tilt_deg, 1),
+        WallSeenFrom(tilt_deg, 101),
+        Sim3d(),
+        [](const image_t a, const image_t b) { return (a < 100) == (b < 100); },
+        /*is_compared_pair=*/{},
+        options);
+  };
+  const CovisibilityCheck close = check_walls(6);
   EXPECT_FALSE(close.consistent);
   EXPECT_GE(close.num_predicted_cross_pairs, options.min_num_predicted_pairs);
   EXPECT_EQ(close.num_predicted_close_cross_pairs, 5);
   EXPECT_EQ(close.num_verified_close_cross_pairs, 0);
   EXPECT_EQ(close.num_predicted_close_internal_pairs, 0);
 
-  const CovisibilityCheck wide = CheckCovisibility(WallSeenFrom(-15, 1),
-                                                   WallSeenFrom(15, 101),
-                                                   Sim3d(),
-                                                   is_verified,
-                                                   /*is_compared_pair=*/{},
-                                                   options);
+  const CovisibilityCheck wide = check_walls(15);
   EXPECT_FALSE(wide.consistent);
   EXPECT_GE(wide.num_predicted_cross_pairs, options.min_num_predicted_pairs);
   EXPECT_EQ(wide.num_predicted_close_cross_pairs, 0);
