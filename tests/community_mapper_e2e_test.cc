@@ -11,6 +11,7 @@
 
 #include <fstream>
 #include <map>
+#include <regex>
 #include <set>
 #include <sstream>
 #include <vector>
@@ -568,6 +569,17 @@ TEST(CommunityMapperRepeatedStructure, IdenticalTowersAreNotStacked) {
   EXPECT_NE(log.find("1 connected component(s)"), std::string::npos) << log;
   EXPECT_NE(log.find("no transform explains the matches"), std::string::npos)
       << log;
+  // The stack puts one landmark's cameras beside the other's: close views
+  // the matcher left unmatched, which keep the rejected link out of
+  // join_parts_by_rejected_links.
+  std::smatch close_views;
+  ASSERT_TRUE(std::regex_search(
+      log, close_views, std::regex("close views ([0-9]+) of ([0-9]+) across")))
+      << log;
+  const int num_verified_close = std::stoi(close_views[1].str());
+  const int num_predicted_close = std::stoi(close_views[2].str());
+  EXPECT_GE(num_predicted_close, 10);
+  EXPECT_LT(num_verified_close, 0.1 * num_predicted_close);
 
   const std::map<std::string, int> clusters =
       ReadClusters(JoinPaths(scene.path, "clusters.txt"));
