@@ -248,13 +248,20 @@ def run_timed(command, log_path):
     return status, wall, cpu, rss_mb
 
 
-def evaluate(model_path, ground_truth_path, centers_path):
-    output = subprocess.run(
-        [MODEL_EVALUATOR, "--model_path", model_path,
-         "--ground_truth_path", ground_truth_path,
-         "--aligned_centers_path", centers_path],
-        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
-        check=True).stdout
+def evaluate(model_path, ground_truth_path, centers_path=None,
+             image_list_path=None):
+    """build/model_evaluator's figures of the model (those of the images in
+    `image_list_path` alone, aligned on them, if given), by key; writes the
+    aligned camera centres to `centers_path` if given."""
+    arguments = [MODEL_EVALUATOR, "--model_path", model_path,
+                 "--ground_truth_path", ground_truth_path]
+    if centers_path:
+        arguments += ["--aligned_centers_path", centers_path]
+    if image_list_path:
+        arguments += ["--image_list_path", image_list_path]
+    output = subprocess.run(arguments, stdout=subprocess.PIPE,
+                            stderr=subprocess.DEVNULL, text=True,
+                            check=True).stdout
     figures = {}
     for line in output.splitlines():
         key, value = line.split()
@@ -265,16 +272,8 @@ def evaluate(model_path, ground_truth_path, centers_path):
 def subset_median_error(model_path, ground_truth_path, list_path):
     """Median camera error of the images listed in `list_path` in the model,
     aligned on them alone (NaN where they cannot be aligned)."""
-    output = subprocess.run(
-        [MODEL_EVALUATOR, "--model_path", model_path,
-         "--ground_truth_path", ground_truth_path,
-         "--image_list_path", list_path],
-        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True).stdout
-    for line in output.splitlines():
-        key, value = line.split()
-        if key == "median_position_error":
-            return float(value)
-    return float("nan")
+    return evaluate(model_path, ground_truth_path,
+                    image_list_path=list_path)["median_position_error"]
 
 
 def per_community_errors(scene_dir, ground_truth, methods):
