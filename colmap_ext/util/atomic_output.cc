@@ -3,7 +3,10 @@
 #include "colmap/util/logging.h"
 #include "colmap/util/misc.h"
 
+#include <cerrno>
+#include <csignal>
 #include <fstream>
+#include <vector>
 
 #include <boost/filesystem.hpp>
 #include <unistd.h>
@@ -11,11 +14,98 @@
 namespace colmap {
 namespace {
 
+std::string HostName() {
+  char name[256] = {};
+  if (::gethostname(name, sizeof(name) - 1) != 0) {
+    return "unknown";
+  }
+  return name;
+}
+
+// The writer's tag in its temporary names: host and process id, so that a
+// leftover of a process that no longer runs on this host can be told from
+// the output another process (on this host or another sharing the folder)
+// is writing.
+std::string WriterTag() {
+  return HostName() + "-" + std::to_string(::getpid());
+}
+
 std::string TemporaryPath(const std::string& path) {
-  return path + ".tmp-" + std::to_string(::getpid());
+  return path + ".tmp-" + WriterTag();
+}
+
+std::string PreviousPath(const std::string& path) {
+  return path + ".old-" + WriterTag();
+}
+
+// Whether `tag` (HOST-PID) names a process of this host that has ended.
+bool IsEndedWriterOfThisHost(const std::string& tag) {
+  const size_t dash = tag.rfind('-');
+  if (dash == std::string::npos || tag.substr(0, dash) != HostName()) {
+    return false;
+  }
+  const std::string pid_text = tag.substr(dash + 1);
+  if (pid_text.empty() ||
+      pid_text.find_first_not_of("0123456789") != std::string::npos) {
+    return false;
+  }
+  const pid_t pid = static_cast<pid_t>(std::stol(pid_text));
+  if (pid == ::getpid()) {
+    return false;
+  }
+  if (::kill(pid, 0) != 0) {
+    return errno == ESRCH;
+  }
+  // A killed process that nobody reaped yet (a zombie) has ended too.
+  std::ifstream stat("/proc/" + pid_text + "/stat");
+  std::string line;
+  if (!std::getline(stat, line)) {
+    return false;
+  }
+  const size_t name_end = line.rfind(')');
+  return name_end != std::string::npos && name_end + 2 < line.size() &&
+         (line[name_end + 2] == 'Z' || line[name_end + 2] == 'X');
+}
+
+std::string ParentFolder(const std::string& path) {
+  const boost::filesystem::path parent =
+      boost::filesystem::path(path).parent_path();
+  return parent.empty() ? "." : parent.string();
 }
 
 }  // namespace
+
+int RemoveLeftoversOfEndedWriters(const std::string& folder) {
+  boost::system::error_code error;
+  if (!boost::filesystem::is_directory(folder, error)) {
+    return 0;
+  }
+  std::vector<boost::filesystem::path> leftovers;
+  for (const auto& entry :
+       boost::filesystem::directory_iterator(folder, error)) {
+    const std::string name = entry.path().filename().string();
+    for (const std::string marker : {".tmp-", ".old-"}) {
+      const size_t position = name.rfind(marker);
+      if (position == std::string::npos || position == 0 ||
+          !IsEndedWriterOfThisHost(name.substr(position + marker.size()))) {
+        continue;
+      }
+      // A previous output moved aside is the only copy where the writer
+      // ended before its new output took the name: it stays then.
+      if (marker == ".old-" &&
+          !boost::filesystem::exists(boost::filesystem::path(folder) /
+                                     name.substr(0, position))) {
+        continue;
+      }
+      leftovers.push_back(entry.path());
+    }
+  }
+  for (const auto& leftover : leftovers) {
+    boost::system::error_code ignored;
+    boost::filesystem::remove_all(leftover, ignored);
+  }
+  return static_cast<int>(leftovers.size());
+}
 
 void WriteReconstructionAtomically(const Reconstruction& reconstruction,
                                    const std::string& path) {
@@ -32,7 +122,7 @@ void WriteReconstructionAtomically(const Reconstruction& reconstruction,
 
   // A folder cannot be renamed over a non-empty one: move the old one aside
   // first, then drop it.
-  const std::string previous = path + ".old-" + std::to_string(::getpid());
+  const std::string previous = PreviousPath(path);
   const bool had_previous = boost::filesystem::exists(path);
   if (had_previous) {
     boost::filesystem::rename(path, previous);
@@ -41,6 +131,7 @@ void WriteReconstructionAtomically(const Reconstruction& reconstruction,
   if (had_previous) {
     boost::filesystem::remove_all(previous);
   }
+  RemoveLeftoversOfEndedWriters(ParentFolder(path));
 }
 
 void WriteTextFileAtomically(const std::string& text, const std::string& path) {
@@ -53,6 +144,7 @@ void WriteTextFileAtomically(const std::string& text, const std::string& path) {
     THROW_CHECK(file.good()) << "Could not write " << temporary;
   }
   boost::filesystem::rename(temporary, path);
+  RemoveLeftoversOfEndedWriters(ParentFolder(path));
 }
 
 bool IsModelDir(const std::string& path) {

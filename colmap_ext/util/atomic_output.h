@@ -1,8 +1,10 @@
 // Outputs that never exist half-written.
 //
-// Each output is written beside its destination under a temporary name and
-// renamed into place once complete, so that an interrupted run leaves either
-// the previous output or the new one, never a mix.
+// Each output is written beside its destination under a temporary name
+// (tagged with the writer's host and process) and renamed into place once
+// complete, so that an interrupted run leaves either the previous output or
+// the new one, never a mix; the next writer of the same output removes what
+// an interrupted one left beside it.
 
 #pragma once
 
@@ -19,6 +21,16 @@ void WriteReconstructionAtomically(const Reconstruction& reconstruction,
 
 // Writes the text to the file `path`, replacing a file that is there.
 void WriteTextFileAtomically(const std::string& text, const std::string& path);
+
+// Removes from `folder` what writers killed while writing an output there
+// left behind: those of processes of this host that no longer run. Their
+// temporaries go, and a previous output they had moved aside goes where the
+// output itself is there again (otherwise it is the only copy, and stays).
+// What running processes, or other hosts sharing the folder (a cluster's
+// jobs), are writing is left alone.
+// Both writers above call it on their destination's folder once their
+// output is in place. Returns the number of leftovers removed.
+int RemoveLeftoversOfEndedWriters(const std::string& folder);
 
 // Whether the folder holds a COLMAP model (cameras, images, points3D).
 bool IsModelDir(const std::string& path);
