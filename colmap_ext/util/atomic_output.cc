@@ -148,7 +148,7 @@ void WriteTextFileAtomically(const std::string& text, const std::string& path) {
 }
 
 bool IsModelDir(const std::string& path) {
-  for (const std::string& name : {"cameras", "images", "points3D"}) {
+  for (const std::string name : {"cameras", "images", "points3D"}) {
     if (ExistsFile(JoinPaths(path, name + ".bin")) ||
         ExistsFile(JoinPaths(path, name + ".txt"))) {
       return true;
