@@ -189,6 +189,76 @@ TEST_F(CommunityMapperEndToEnd, PartitionRecoversTheClusters) {
   EXPECT_EQ(distinct.size(), 3);
 }
 
+TEST_F(CommunityMapperEndToEnd, ImageListRestrictsTheRun) {
+  ASSERT_EQ(status_, 0);
+  // Every image but those of the third landmark cluster.
+  const std::string root = *output_path_ + "_listed";
+  CreateDirIfNotExists(root);
+  const std::string list_path = JoinPaths(root, "images.txt");
+  std::set<std::string> listed;
+  {
+    std::ofstream list(list_path);
+    for (const auto& name_and_cluster :
+         ReadClusters(JoinPaths(scene_->path, "clusters.txt"))) {
+      if (name_and_cluster.second != 2) {
+        listed.insert(name_and_cluster.first);
+        list << name_and_cluster.first << "\n";
+      }
+    }
+  }
+  ASSERT_GE(listed.size(), 100);
+  const std::string out = JoinPaths(root, "sparse");
+  std::string log;
+  ASSERT_EQ(RunMapper("community_mapper",
+                      *scene_,
+                      out,
+                      &log,
+                      "--image_list_path " + ShellQuote(list_path)),
+            0)
+      << log;
+  // The partition and the model hold listed images only, the model nearly
+  // all of them.
+  const std::unordered_map<std::string, int> communities =
+      ReadCommunities(JoinPaths(out, "communities.txt"));
+  EXPECT_EQ(communities.size(), listed.size());
+  for (const auto& name_and_community : communities) {
+    EXPECT_EQ(listed.count(name_and_community.first), 1)
+        << name_and_community.first;
+  }
+  Reconstruction model;
+  model.Read(JoinPaths(out, "0"));
+  EXPECT_GE(model.NumRegImages(), 0.95 * listed.size());
+  for (const image_t image_id : model.RegImageIds()) {
+    EXPECT_EQ(listed.count(model.Image(image_id).Name()), 1)
+        << model.Image(image_id).Name();
+  }
+  // The project file reproduces the run: the plan fits and is reused.
+  ASSERT_EQ(RunCommand(std::string(COLMAP_BINARY) +
+                           " community_mapper --project_path " +
+                           ShellQuote(JoinPaths(out, "project.ini")),
+                       &log),
+            0)
+      << log;
+  EXPECT_NE(log.find("Resuming the run"), std::string::npos) << log;
+  // The plan was made for this list: a run with another is refused.
+  {
+    std::ofstream list(list_path, std::ios::trunc);
+    for (auto it = std::next(listed.begin()); it != listed.end(); ++it) {
+      list << *it << "\n";
+    }
+  }
+  EXPECT_NE(RunMapper("community_mapper",
+                      *scene_,
+                      out,
+                      &log,
+                      "--image_list_path " + ShellQuote(list_path)),
+            0);
+  EXPECT_NE(log.find("--image_list_path is " +
+                     std::to_string(listed.size() - 1) + " images"),
+            std::string::npos)
+      << log;
+}
+
 TEST_F(CommunityMapperEndToEnd, OneAccurateModel) {
   ASSERT_EQ(status_, 0);
   const std::string model_path = JoinPaths(*output_path_, "0");

@@ -157,6 +157,23 @@ TEST_F(CommunityMapperInputTest, TooFewInliersForTheThreshold) {
                 "no verified image pairs with at least 60 inlier matches");
 }
 
+TEST_F(CommunityMapperInputTest, BadImageList) {
+  const std::string path = JoinPaths(test_dir_, "images.txt");
+  ExpectRefusal(good_database_,
+                "--image_list_path " + ShellQuote(path),
+                "does not exist. Check --image_list_path");
+  std::ofstream(path) << "\n  \n";
+  ExpectRefusal(good_database_,
+                "--image_list_path " + ShellQuote(path),
+                "names no image");
+  std::ofstream(path) << "image0.jpg\nimages/image1.jpg\nimage2.jpg\n";
+  ExpectRefusal(good_database_,
+                "--image_list_path " + ShellQuote(path),
+                "1 of the 3 names in the image list " + path +
+                    " are no image of the database " + good_database_ +
+                    ", e.g. 'images/image1.jpg'");
+}
+
 TEST_F(CommunityMapperInputTest, InvalidOptionValues) {
   ExpectRefusal(good_database_,
                 "--CommunityMapper.modularity_threshold 1.0",

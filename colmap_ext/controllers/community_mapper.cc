@@ -942,7 +942,7 @@ bool CommunityMapperController::Partition() {
   const Database database(options_.database_path);
   database_fingerprint_ = DatabaseFingerprint(database);
   const ViewGraph view_graph =
-      ViewGraph::Read(database, options_.MinNumMatches());
+      ViewGraph::Read(database, options_.MinNumMatches(), options_.image_names);
   const ViewGraphEdgeWeight edge_weight = options_.edge_weight;
   const WeightedGraph graph = view_graph.ToWeightedGraph(edge_weight);
   const std::vector<std::vector<int>> components = graph.ConnectedComponents();
@@ -959,8 +959,11 @@ bool CommunityMapperController::Partition() {
       components.empty() ? 0 : static_cast<int>(components[0].size()));
   if (view_graph.NumEdges() == 0) {
     LOG(ERROR) << "The database has no verified image pairs with at least "
-               << options_.MinNumMatches()
-               << " inlier matches: run a matcher first.";
+               << options_.MinNumMatches() << " inlier matches"
+               << (options_.image_names.empty()
+                       ? ""
+                       : " between two of the listed images")
+               << ": run a matcher first.";
     return false;
   }
 
@@ -1245,7 +1248,7 @@ bool CommunityMapperController::Merge() {
   // One connection for the view graph and the cross edges' matches.
   const Database database(options_.database_path);
   const ViewGraph view_graph =
-      ViewGraph::Read(database, options_.MinNumMatches());
+      ViewGraph::Read(database, options_.MinNumMatches(), options_.image_names);
   CommunityImages communities = GroupImagesByCommunity(view_graph, plan_);
   summary_.community_of_image = communities.community_of_image;
 

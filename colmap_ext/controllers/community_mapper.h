@@ -62,6 +62,12 @@ class CommunityMapperController : public BaseController {
     // The path to the database file which is used as input.
     std::string database_path;
 
+    // Only these images are reconstructed (empty: every image of the
+    // database), as colmap mapper's --image_list_path: the view graph holds
+    // the pairs of two of them. The command records the list in
+    // plan_options.
+    std::unordered_set<std::string> image_names;
+
     // The output folder (community_workspace.h): the plan, communities.txt,
     // communities/K/ (one model per community, written as soon as it is
     // done, and its record), communities.ply. Required.

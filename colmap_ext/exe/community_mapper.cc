@@ -8,6 +8,7 @@
 #include "colmap/controllers/option_manager.h"
 #include "colmap/util/misc.h"
 
+#include <algorithm>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -185,6 +186,59 @@ bool QueryInteger(sqlite3* database, const std::string& sql, int64_t* value) {
   }
   sqlite3_finalize(statement);
   return ok;
+}
+
+// Reads --image_list_path into options->image_names, each name an image of
+// the database, and records the list in the plan's options (a plan made
+// with another list does not fit). False, with the reason logged, if the
+// file is missing or empty or names an image the database lacks.
+bool ReadImageList(const std::string& path,
+                   CommunityMapperController::Options* options) {
+  if (!ExistsFile(path)) {
+    LOG(ERROR) << "The image list " << path
+               << " does not exist. Check --image_list_path: a text file "
+                  "with one image name per line, as in the database.";
+    return false;
+  }
+  std::vector<std::string> names;
+  for (std::string name : ReadTextFileLines(path)) {
+    StringTrim(&name);
+    if (!name.empty()) {
+      names.push_back(name);
+    }
+  }
+  if (names.empty()) {
+    LOG(ERROR) << "The image list " << path
+               << " names no image. Give one image name per line, or leave "
+                  "out --image_list_path to reconstruct every image.";
+    return false;
+  }
+  std::sort(names.begin(), names.end());
+  names.erase(std::unique(names.begin(), names.end()), names.end());
+  const Database database(options->database_path);
+  std::vector<std::string> unknown;
+  for (const std::string& name : names) {
+    if (!database.ExistsImageWithName(name)) {
+      unknown.push_back(name);
+    }
+  }
+  if (!unknown.empty()) {
+    LOG(ERROR) << StringPrintf(
+        "%d of the %d names in the image list %s are no image of the "
+        "database %s, e.g. '%s'. Names are as in the database (relative to "
+        "the image folder, e.g. 'dir/image.jpg').",
+        static_cast<int>(unknown.size()),
+        static_cast<int>(names.size()),
+        path.c_str(),
+        options->database_path.c_str(),
+        unknown.front().c_str());
+    return false;
+  }
+  options->image_names.insert(names.begin(), names.end());
+  options->plan_options += StringPrintf("image_list_path=%d images, list %s\n",
+                                        static_cast<int>(names.size()),
+                                        TextsFingerprint(names).c_str());
+  return true;
 }
 
 // Reads the database without modifying it and says what it lacks.
@@ -394,6 +448,8 @@ bool RunCommunityMapperImpl(const CommunityMapperCommand& command) {
   options.edge_weight = ViewGraphEdgeWeightFromString(command.edge_weights);
   const CommunityWorkspace workspace(options.output_path);
   if (!CheckDatabase(options.database_path, options.MinNumMatches()) ||
+      (!command.image_list_path.empty() &&
+       !ReadImageList(command.image_list_path, &options)) ||
       !PrepareWorkspace(command, workspace)) {
     return false;
   }
@@ -572,6 +628,10 @@ void ParseCommand(int argc,
   options.AddDatabaseOptions();
   options.AddImageOptions();
   options.AddRequiredOption("output_path", &output_path);
+  options.AddDefaultOption("image_list_path",
+                           &command->image_list_path,
+                           "reconstruct only the images named in this file, "
+                           "one per line, as colmap mapper");
   int community_id_for_help = -1;
   if (stage == CommunityMapperStage::kCommunity) {
     options.AddDefaultOption("community_id",
@@ -878,9 +938,14 @@ void ParseCommand(int argc,
     for (const auto& write : ini_writers) {
       write();
     }
-    // output_path first: options outside any section precede the sections.
+    // output_path (and image_list_path) first: options outside any section
+    // precede the sections.
     command->project_ini =
-        "output_path=" + output_path + "\n" + text.str() + ini_section.str();
+        "output_path=" + output_path + "\n" +
+        (command->image_list_path.empty()
+             ? ""
+             : "image_list_path=" + command->image_list_path + "\n") +
+        text.str() + ini_section.str();
   }
   mapper_options.plan_options = PlanOptions(command->project_ini);
   if (stage == CommunityMapperStage::kCommunity) {

@@ -40,6 +40,9 @@ struct CommunityMapperCommand {
   CommunityMapperController::Options options;
   // --CommunityMapper.edge_weights: "unit" or "num_inliers".
   std::string edge_weights = "unit";
+  // --image_list_path: a text file of the image names to reconstruct, one
+  // per line, as colmap mapper's (empty: every image of the database).
+  std::string image_list_path;
   // The community of kCommunity.
   int community_id = -1;
   // Replace the results of an earlier run (of kCommunity: that community's).

@@ -74,20 +74,38 @@ std::string ViewGraphEdgeWeightToString(const ViewGraphEdgeWeight weight) {
   return "unknown";
 }
 
-ViewGraph ViewGraph::Read(const Database& database, const int min_num_matches) {
+ViewGraph ViewGraph::Read(const Database& database,
+                          const int min_num_matches,
+                          const std::unordered_set<std::string>& image_names) {
   std::vector<std::pair<image_t, image_t>> image_pairs;
   std::vector<int> num_inliers;
   database.ReadTwoViewGeometryNumInliers(&image_pairs, &num_inliers);
+  // The pairs read are those with inliers; the database counts all.
+  const size_t num_failed_pairs =
+      database.NumVerifiedImagePairs() - image_pairs.size();
 
-  std::unordered_map<image_t, std::string> image_names;
+  std::unordered_map<image_t, std::string> name_of_image;
   for (const Image& image : database.ReadAllImages()) {
-    image_names.emplace(image.ImageId(), image.Name());
+    if (image_names.empty() || image_names.count(image.Name()) > 0) {
+      name_of_image.emplace(image.ImageId(), image.Name());
+    }
+  }
+  if (!image_names.empty()) {
+    size_t num_kept = 0;
+    for (size_t i = 0; i < image_pairs.size(); ++i) {
+      if (name_of_image.count(image_pairs[i].first) > 0 &&
+          name_of_image.count(image_pairs[i].second) > 0) {
+        image_pairs[num_kept] = image_pairs[i];
+        num_inliers[num_kept] = num_inliers[i];
+        ++num_kept;
+      }
+    }
+    image_pairs.resize(num_kept);
+    num_inliers.resize(num_kept);
   }
   ViewGraph view_graph =
-      Create(image_pairs, num_inliers, min_num_matches, image_names);
-  // The pairs read are those with inliers; the database counts all.
-  view_graph.num_failed_pairs_ =
-      database.NumVerifiedImagePairs() - image_pairs.size();
+      Create(image_pairs, num_inliers, min_num_matches, name_of_image);
+  view_graph.num_failed_pairs_ = num_failed_pairs;
   return view_graph;
 }
 

@@ -13,6 +13,8 @@
 #include "colmap/util/types.h"
 
 #include <string>
+#include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 namespace colmap {
@@ -65,8 +67,12 @@ class ViewGraph {
 
   // Reads the verified pairs of the database. Only the inlier counts are
   // read, not the matches themselves, so this is cheap even for large
-  // databases.
-  static ViewGraph Read(const Database& database, int min_num_matches);
+  // databases. With `image_names`, only the pairs of two images named there
+  // (as the incremental mapper's image_names, --image_list_path).
+  static ViewGraph Read(
+      const Database& database,
+      int min_num_matches,
+      const std::unordered_set<std::string>& image_names = {});
 
   // Builds the graph from a list of image pairs with their inlier counts.
   // Pairs below `min_num_matches` are ignored; image names are optional.

@@ -99,6 +99,15 @@ TEST(ViewGraph, ReadFromDatabase) {
   const ViewGraph loose = ViewGraph::Read(database, /*min_num_matches=*/5);
   EXPECT_EQ(loose.NumVertices(), 3);
   EXPECT_EQ(loose.NumEdges(), 2);
+
+  // With a list, only the pairs of two listed images (0-1 is not one).
+  const ViewGraph listed = ViewGraph::Read(
+      database, /*min_num_matches=*/5, {"image1.png", "image2.png"});
+  ASSERT_EQ(listed.NumVertices(), 2);
+  ASSERT_EQ(listed.NumEdges(), 1);
+  EXPECT_EQ(listed.ImageNames()[0], "image1.png");
+  EXPECT_EQ(listed.ImageNames()[1], "image2.png");
+  EXPECT_EQ(listed.Edges()[0].num_inliers, 10);
 }
 
 TEST(ViewGraphEdgeWeight, FromString) {

@@ -304,6 +304,14 @@ CommunityPlan CommunityPlanFromText(const std::string& text) {
   return plan;
 }
 
+std::string TextsFingerprint(const std::vector<std::string>& texts) {
+  Fingerprint fingerprint;
+  for (const std::string& text : texts) {
+    fingerprint.Add(text);
+  }
+  return fingerprint.Hex();
+}
+
 std::string DatabaseFingerprint(const Database& database) {
   Fingerprint fingerprint;
   std::vector<Camera> cameras = database.ReadAllCameras();

@@ -109,6 +109,9 @@ CommunityPlan CommunityPlanFromText(const std::string& text);
 // (their inlier counts): what the partition and the communities depend on.
 std::string DatabaseFingerprint(const Database& database);
 
+// A fingerprint (hex) of the texts, in their order (e.g. an image list).
+std::string TextsFingerprint(const std::vector<std::string>& texts);
+
 // Why `plan` does not fit the database fingerprint and options of this run
 // (empty if it fits): the first option that differs, or the database.
 std::string PlanMismatch(const CommunityPlan& plan,
