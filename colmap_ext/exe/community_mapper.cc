@@ -1,5 +1,6 @@
 #include "colmap_ext/exe/community_mapper.h"
 
+#include "colmap_ext/scene/community_io.h"
 #include "colmap_ext/scene/community_workspace.h"
 #include "colmap_ext/util/atomic_output.h"
 #include "colmap_ext/util/log_tag.h"
@@ -192,29 +193,14 @@ bool QueryInteger(sqlite3* database, const std::string& sql, int64_t* value) {
 // the database, and records the list in the plan's options (a plan made
 // with another list does not fit). False, with the reason logged, if the
 // file is missing or empty or names an image the database lacks.
-bool ReadImageList(const std::string& path,
-                   CommunityMapperController::Options* options) {
-  if (!ExistsFile(path)) {
-    LOG(ERROR) << "The image list " << path
-               << " does not exist. Check --image_list_path: a text file "
-                  "with one image name per line, as in the database.";
-    return false;
-  }
+bool ReadImageListIntoOptions(const std::string& path,
+                              CommunityMapperController::Options* options) {
   std::vector<std::string> names;
-  for (std::string name : ReadTextFileLines(path)) {
-    StringTrim(&name);
-    if (!name.empty()) {
-      names.push_back(name);
-    }
-  }
-  if (names.empty()) {
-    LOG(ERROR) << "The image list " << path
-               << " names no image. Give one image name per line, or leave "
-                  "out --image_list_path to reconstruct every image.";
+  const std::string problem = ReadImageList(path, &names);
+  if (!problem.empty()) {
+    LOG(ERROR) << problem;
     return false;
   }
-  std::sort(names.begin(), names.end());
-  names.erase(std::unique(names.begin(), names.end()), names.end());
   const Database database(options->database_path);
   std::vector<std::string> unknown;
   for (const std::string& name : names) {
@@ -449,7 +435,7 @@ bool RunCommunityMapperImpl(const CommunityMapperCommand& command) {
   const CommunityWorkspace workspace(options.output_path);
   if (!CheckDatabase(options.database_path, options.MinNumMatches()) ||
       (!command.image_list_path.empty() &&
-       !ReadImageList(command.image_list_path, &options)) ||
+       !ReadImageListIntoOptions(command.image_list_path, &options)) ||
       !PrepareWorkspace(command, workspace)) {
     return false;
   }

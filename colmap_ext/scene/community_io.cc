@@ -64,6 +64,29 @@ std::string CommunitiesToText(const ViewGraph& view_graph,
   return text.str();
 }
 
+std::string ReadImageList(const std::string& path,
+                          std::vector<std::string>* names) {
+  names->clear();
+  if (!ExistsFile(path)) {
+    return "The image list " + path +
+           " does not exist. Check --image_list_path: a text file with one "
+           "image name per line, as in the database.";
+  }
+  for (std::string name : ReadTextFileLines(path)) {
+    StringTrim(&name);
+    if (!name.empty()) {
+      names->push_back(name);
+    }
+  }
+  if (names->empty()) {
+    return "The image list " + path +
+           " names no image: give one image name per line.";
+  }
+  std::sort(names->begin(), names->end());
+  names->erase(std::unique(names->begin(), names->end()), names->end());
+  return "";
+}
+
 std::unordered_map<std::string, int> ReadCommunities(const std::string& path) {
   std::ifstream file(path);
   THROW_CHECK_FILE_OPEN(file, path);

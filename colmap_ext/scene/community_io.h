@@ -5,6 +5,9 @@
 // graph, "IMAGE_NAME COMMUNITY_ID", community ids 0..K-1 with the largest
 // community first, images sorted by name.
 //
+// Image lists (--image_list_path of community_mapper and model_evaluator,
+// as COLMAP's): one image name per line, as in the database.
+//
 // communities.ply: the camera centres of a model as coloured vertices, one
 // colour per community (COLMAP's GUI imports it with File > Import; MeshLab
 // and CloudCompare open it too).
@@ -18,6 +21,7 @@
 
 #include <string>
 #include <unordered_map>
+#include <vector>
 
 namespace colmap {
 
@@ -29,6 +33,12 @@ std::string CommunitiesToText(const ViewGraph& view_graph,
 // Reads communities.txt into image name -> community id. Throws on
 // malformed lines.
 std::unordered_map<std::string, int> ReadCommunities(const std::string& path);
+
+// Reads an image list into its distinct names, sorted, each without the
+// blanks around it; empty lines are skipped. Returns the problem, for the
+// user (empty if none): a missing file, or one that names no image.
+std::string ReadImageList(const std::string& path,
+                          std::vector<std::string>* names);
 
 // A distinct, stable colour per community id.
 Eigen::Vector3ub CommunityColor(int community_id);

@@ -62,6 +62,21 @@ TEST(ReadCommunities, RejectsAnImageListedTwice) {
   EXPECT_THROW(ReadCommunities(path), std::exception);
 }
 
+TEST(ReadImageList, DistinctTrimmedNamesOrAProblem) {
+  const std::string test_dir = CreateTestFolder();
+  const std::string path = JoinPaths(test_dir, "images.txt");
+  std::vector<std::string> names;
+  EXPECT_NE(ReadImageList(path, &names).find("does not exist"),
+            std::string::npos);
+  WriteTextFileAtomically(" \n\n", path);
+  EXPECT_NE(ReadImageList(path, &names).find("names no image"),
+            std::string::npos);
+  EXPECT_TRUE(names.empty());
+  WriteTextFileAtomically("b.jpg\n  dir/a b.jpg \n\nb.jpg\n", path);
+  EXPECT_EQ(ReadImageList(path, &names), "");
+  EXPECT_EQ(names, (std::vector<std::string>{"b.jpg", "dir/a b.jpg"}));
+}
+
 TEST(CommunityCamerasToPly, ColmapReadsTheColouredCameras) {
   Reconstruction reconstruction;
   reconstruction.AddCamera(

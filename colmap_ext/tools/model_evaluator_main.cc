@@ -11,6 +11,7 @@
 // COLMAP's image lists) aligns and measures those images alone, e.g. one
 // community's in a merged model.
 
+#include "colmap_ext/scene/community_io.h"
 #include "colmap_ext/scene/model_evaluation.h"
 #include "colmap_ext/util/atomic_output.h"
 
@@ -58,14 +59,10 @@ int RunModelEvaluator(int argc, char** argv) {
   }
 
   if (!image_list_path.empty()) {
-    if (!ExistsFile(image_list_path)) {
-      LOG(ERROR) << "No image list at --image_list_path " << image_list_path;
-      return EXIT_FAILURE;
-    }
-    evaluation_options.image_names = ReadTextFileLines(image_list_path);
-    if (evaluation_options.image_names.empty()) {
-      LOG(ERROR) << "The image list " << image_list_path
-                 << " names no image: give one name per line";
+    const std::string problem =
+        ReadImageList(image_list_path, &evaluation_options.image_names);
+    if (!problem.empty()) {
+      LOG(ERROR) << problem;
       return EXIT_FAILURE;
     }
   }
