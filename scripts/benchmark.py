@@ -4,7 +4,7 @@
 photographs.
 
     scripts/benchmark.py [--quick] [--out OUT] [--methods M,...]
-                         [--seeds S,...] [SCENE ...]
+                         [--seeds S,...] [--doc PATH] [SCENE ...]
 
 Scenes (default: small medium):
   generated, with exact ground truth (build/scene_generator):
@@ -52,8 +52,9 @@ Scenes (default: small medium):
   A generated scene with `_sS` appended (e.g. chain_s7) is the same kind of
   scene drawn with seed S: another layout and other noise, to tell a
   method's systematic error from one draw's luck.
-  `generated` and `real` stand for all scenes of the kind, `issue11` for
-  courtyard chain dense castle herzjesu southbuilding.
+  `generated` and `real` stand for all scenes of the kind, `all_kinds` for
+  courtyard chain dense castle herzjesu southbuilding (every kind of scene,
+  all three methods: the run docs/benchmark.md opens with).
 
 For every scene the methods run one after another on the very same database:
   - mapper:        colmap mapper
@@ -63,8 +64,8 @@ For every scene the methods run one after another on the very same database:
                    community mapper's median community size
 Each run is measured with /usr/bin/time (wall, CPU, peak resident memory)
 and evaluated by build/model_evaluator against the ground truth. Results:
-a Markdown table on stdout and in OUT/results.md, raw figures in
-OUT/results.csv, and PNG plots (wall time against images; top-down camera
+a Markdown table on stdout and in OUT/results.md (headed by the command
+line that produced it), raw figures in OUT/results.csv, and PNG plots (wall time against images; top-down camera
 centres of every method after alignment, beside the ground truth, coloured
 by community for community_mapper). Camera errors: median, 90th percentile
 and mean, and the images on which a method's camera is closer to the ground
@@ -89,6 +90,13 @@ in the median camera error by several percent: the table then holds a row
 per method and seed, each compared with the mapper of the same seed, and a
 line per scene gives each method's median over the seeds with its range and
 on how many seeds the bar's checks held.
+
+`--doc docs/benchmark.md` also writes the Markdown results into that file,
+as a section headed by the scenes' names, with the command line that
+produced them in a fenced block under the heading: a section of the file
+whose first fenced block holds the same command line (`--doc` and its path
+left aside) is replaced, otherwise the section is appended. Sections are
+delimited by `## ` headings.
 """
 
 import argparse
@@ -96,6 +104,7 @@ import csv
 import os
 import random
 import re
+import shlex
 import shutil
 import sqlite3
 import statistics
@@ -120,8 +129,8 @@ SCENES = {
                    num_images_per_link=37, close_loop=1),
     "large": dict(num_clusters=10, num_images_per_cluster=240,
                   num_images_per_link=60, close_loop=0),
-    # Issue 13's scale: about 10,000 images (community_mapper alone; the
-    # mapper would take days on 2 cores).
+    # About 10,000 images (community_mapper alone; the mapper would take
+    # days on 2 cores).
     "huge": dict(num_clusters=30, num_images_per_cluster=275,
                  num_images_per_link=60, close_loop=0),
     "huge_loop": dict(num_clusters=30, num_images_per_cluster=275,
@@ -205,8 +214,8 @@ def generated_knobs(name):
 GROUPS = {
     "generated": ["small", "medium", "courtyard", "chain", "dense"],
     "real": list(REAL),
-    "issue11": ["courtyard", "chain", "dense", "castle", "herzjesu",
-                "southbuilding"],
+    "all_kinds": ["courtyard", "chain", "dense", "castle", "herzjesu",
+                  "southbuilding"],
     "sb_subsets": list(SUBSETS),
     "sb_sequences": ["sbseq5", "sbseq10", "sbseq20"],
     "strecha_split": ["castle_split", "herzjesu_split"],
@@ -642,7 +651,7 @@ def closer_text(row):
 
 
 def bar_checks(scene, rows):
-    """The bar of issue 11 for one run of every method on the scene: one
+    """The bar for one run of every method on the scene: one
     model where the mapper has one, as many images, no larger median error,
     and half the mapper's time from 500 images on and on South Building.
     (text, passed) per check; passed is None where the peer did not run."""
@@ -784,6 +793,91 @@ def markdown(rows, scene_knobs, seeds):
     first_rows = [row for row in rows if row["seed"] == seeds[0]]
     lines += scaling(first_rows, scene_knobs)
     return "\n".join(lines)
+
+
+def command_line(argv):
+    """The benchmark's command line as run, from the repository's root."""
+    return " ".join(["scripts/benchmark.py"] +
+                    [shlex.quote(argument) for argument in argv[1:]])
+
+
+def without_doc(command):
+    """The command line without `--doc PATH` (or `--doc=PATH`): the
+    results do not depend on it."""
+    words, kept, skip = shlex.split(command), [], False
+    for word in words:
+        if skip:
+            skip = False
+        elif word == "--doc":
+            skip = True
+        elif not word.startswith("--doc="):
+            kept.append(word)
+    return " ".join(kept)
+
+
+def repository_commit():
+    """The repository's commit (with -dirty where the work tree differs),
+    or None outside a git checkout."""
+    try:
+        return subprocess.run(
+            ["git", "-C", ROOT, "describe", "--always", "--dirty"],
+            check=True, capture_output=True, text=True).stdout.strip() or None
+    except (OSError, subprocess.CalledProcessError):
+        return None
+
+
+def doc_section(scenes, command, table):
+    """The results as a section of a Markdown document: a heading naming
+    the scenes, the command line in a fenced block, the tables."""
+    heading = ("## Scenes " + ", ".join(f"`{scene}`" for scene in scenes)
+               if scenes else "## Community detection alone")
+    commit = repository_commit()
+    lines = [heading, "", "```", command, "```", "",
+             f"Run on {time.strftime('%Y-%m-%d')} with the binaries in "
+             f"{os.path.relpath(BUILD, ROOT)}/" +
+             (f", this repository at {commit}." if commit else "."), "", ""]
+    # The results' own headings sit one level below the section's.
+    return "\n".join(lines) + table.strip("\n") + "\n"
+
+
+def write_doc_section(path, command, section):
+    """Replaces the section of the Markdown file at `path` whose first
+    fenced block is `command` (compared without --doc), or appends the
+    section; sections start at lines beginning with `## ` (or `# `)."""
+    text = open(path).read() if os.path.exists(path) else ""
+    lines = text.split("\n")
+    starts, fence = [], False
+    for index, line in enumerate(lines):
+        if line.startswith("```"):
+            fence = not fence
+        elif not fence and (line.startswith("## ") or line.startswith("# ")):
+            starts.append(index)
+    wanted = without_doc(command)
+    for number, start in enumerate(starts):
+        if not lines[start].startswith("## "):
+            continue
+        end = starts[number + 1] if number + 1 < len(starts) else len(lines)
+        fenced = None
+        for index in range(start + 1, end - 1):
+            if lines[index].startswith("```"):
+                fenced = lines[index + 1].strip()
+                break
+        try:
+            same = fenced is not None and without_doc(fenced) == wanted
+        except ValueError:  # not a command line shlex can split
+            same = False
+        if same:
+            before = "\n".join(lines[:start])
+            after = "\n".join(lines[end:])
+            text = before + ("\n" if before else "") + section + \
+                ("\n" + after if after else "")
+            break
+    else:
+        text = text.rstrip("\n") + ("\n\n" if text.strip() else "") + section
+    with open(path + ".tmp", "w") as file:
+        file.write(text)
+    os.replace(path + ".tmp", path)
+    return path
 
 
 def scaling(rows, scene_knobs):
@@ -928,7 +1022,15 @@ def main():
                         help="comma-separated subset of " + ",".join(METHODS) +
                         " (community always runs: hier_fair needs its "
                         "community sizes)")
+    parser.add_argument("--doc", metavar="PATH",
+                        help="also write the Markdown results into PATH "
+                        "(e.g. docs/benchmark.md) as a section headed by "
+                        "the scenes and this command line, replacing the "
+                        "section of the same command line if there is one")
     arguments = parser.parse_args()
+    if arguments.doc and not os.path.isdir(
+            os.path.dirname(os.path.abspath(arguments.doc))):
+        parser.error(f"--doc {arguments.doc}: its folder does not exist")
     methods = arguments.methods.split(",")
     for method in methods:
         if method not in METHODS:
@@ -986,8 +1088,13 @@ def main():
     table = markdown(rows, scene_knobs, seeds) if rows else ""
     if arguments.partition_graph > 0:
         table += partition_graph_section(arguments.partition_graph)
+    command = command_line(sys.argv)
     with open(os.path.join(arguments.out, "results.md"), "w") as file:
-        file.write("# community_mapper benchmark\n\n" + table + "\n")
+        file.write("# community_mapper benchmark\n\n```\n" + command +
+                   "\n```\n\n" + table + "\n")
+    if arguments.doc:
+        write_doc_section(arguments.doc, command,
+                          doc_section(scenes, command, table))
     plotted = False
     if rows:
         try:
@@ -1000,7 +1107,8 @@ def main():
                 "(scripts/install_deps.sh does) for them")
     print(table)
     log(f"Results in {arguments.out}: results.md, results.csv" +
-        (", time_vs_images.png, cameras_<scene>.png" if plotted else ""))
+        (", time_vs_images.png, cameras_<scene>.png" if plotted else "") +
+        (f"; section in {arguments.doc}" if arguments.doc else ""))
 
 
 if __name__ == "__main__":

@@ -342,8 +342,8 @@ TEST_F(CommunityMapperEndToEnd, ColmapToolsReadTheModel) {
 
 TEST_F(CommunityMapperEndToEnd, ProjectFileReproducesTheRun) {
   ASSERT_EQ(status_, 0);
-  // The saved project, pointed at another folder and stopped after the
-  // partition, gives the same partition.
+  // The saved project, pointed at another folder and given to the
+  // partitioner, gives the same partition.
   std::string project = ReadFile(JoinPaths(*output_path_, "project.ini"));
   const std::string rerun = *output_path_ + "-rerun";
   boost::filesystem::remove_all(rerun);
@@ -352,16 +352,14 @@ TEST_F(CommunityMapperEndToEnd, ProjectFileReproducesTheRun) {
   project.replace(output_line,
                   project.find('\n', output_line) - output_line,
                   "output_path=" + rerun);
-  const size_t partition_only = project.find("partition_only=0");
-  ASSERT_NE(partition_only, std::string::npos);
-  project.replace(partition_only, 16, "partition_only=1");
   const std::string ini_path = *output_path_ + "-rerun.ini";
   std::ofstream(ini_path) << project;
 
   std::string output;
   ASSERT_EQ(
       RunCommand(std::string(COLMAP_BINARY) +
-                     " community_mapper --project_path " + ShellQuote(ini_path),
+                     " community_partitioner --project_path " +
+                     ShellQuote(ini_path),
                  &output),
       0)
       << output;
@@ -430,48 +428,6 @@ Scene TwoClusterScene(const std::string& test_dir) {
       "--keypoint_noise 0.7 --seed 13");
 }
 
-// The refinement's bundle adjustment rounds on a selected subset of the
-// tracks (forced here: the generated scenes are too sparse for the default
-// rule to choose it), the last one over all observations: one model, as
-// accurate as with every round over all observations.
-TEST(CommunityMapperReducedAdjustment, AsAccurateAsOverAllObservations) {
-  const std::string test_dir = CreateTestFolder();
-  const Scene scene = TwoClusterScene(test_dir);
-  std::string log;
-  const std::string full_path = JoinPaths(test_dir, "full");
-  ASSERT_EQ(RunMapper("community_mapper",
-                      scene,
-                      full_path,
-                      &log,
-                      "--CommunityMapper.reduced_adjustment 0"),
-            0)
-      << log;
-  EXPECT_EQ(log.find("Refined the other"), std::string::npos) << log;
-  const std::string reduced_path = JoinPaths(test_dir, "reduced");
-  ASSERT_EQ(RunMapper("community_mapper",
-                      scene,
-                      reduced_path,
-                      &log,
-                      "--CommunityMapper.ba_max_selected_fraction 1 "
-                      "--CommunityMapper.ba_min_tracks_per_image 50"),
-            0)
-      << log;
-  // The rounds ran on the subset.
-  EXPECT_NE(log.find("Refined the other"), std::string::npos) << log;
-
-  EXPECT_FALSE(ExistsDir(JoinPaths(reduced_path, "1")));
-  const ModelEvaluation full =
-      Evaluate(JoinPaths(full_path, "0"), scene.GroundTruthPath());
-  const ModelEvaluation reduced =
-      Evaluate(JoinPaths(reduced_path, "0"), scene.GroundTruthPath());
-  EXPECT_EQ(reduced.num_registered_images, full.num_registered_images);
-  ASSERT_TRUE(full.aligned);
-  ASSERT_TRUE(reduced.aligned);
-  EXPECT_LT(reduced.median_position_error, 1.2 * full.median_position_error);
-  EXPECT_LT(reduced.p90_position_error, 1.2 * full.p90_position_error);
-  EXPECT_LT(reduced.mean_reprojection_error, 1.0);
-}
-
 // The merged model's bundle adjustments run with the correspondences
 // released and loaded again after each (the default): the same model as
 // with them held through the refinement, as the incremental mapper does.
@@ -484,7 +440,7 @@ TEST(CommunityMapperReloadCorrespondences, SameModelAsHoldingThem) {
                       scene,
                       held_path,
                       &log,
-                      "--CommunityMapper.reload_correspondences 0"),
+                      "--CommunityMapper.ba_reload_correspondences 0"),
             0)
       << log;
   // Loaded once, for the triangulation and the rounds together.
@@ -587,40 +543,6 @@ TEST_F(CommunityMapperEndToEnd, ImagesOfAnUnjoinedPartJoinTheLargerModel) {
   EXPECT_GE(evaluation.num_registered_images, 147) << summary;
   EXPECT_LT(evaluation.median_position_error, 1e-3 * evaluation.extent);
   EXPECT_LT(evaluation.p90_position_error, 2e-3 * evaluation.extent);
-}
-
-// A community that leaves the merge (here: every link rejected, every
-// community counted small) keeps the images that no merged model registered
-// (here: none is tried) as a model of its own, as colmap mapper writes the
-// models it cannot join: every image in exactly one model.
-TEST_F(CommunityMapperEndToEnd, LeftCommunitiesKeepTheirImagesAsModels) {
-  std::string log;
-  const std::string output_path =
-      RunOnSuiteScene(*scene_,
-                      "--CommunityMapper.max_rotation_residual_deg 1e-9 "
-                      "--CommunityMapper.min_relative_size 10 "
-                      "--CommunityMapper.register_remaining_images 0",
-                      &log);
-  EXPECT_NE(log.find("keep its model, as a model of its own"),
-            std::string::npos)
-      << log;
-  std::set<std::string> names;
-  size_t num_registered = 0;
-  const std::vector<std::string> model_paths = ModelPaths(output_path);
-  for (const std::string& model_path : model_paths) {
-    Reconstruction model;
-    model.Read(model_path);
-    for (const image_t image_id : model.RegImageIds()) {
-      EXPECT_TRUE(names.insert(model.Image(image_id).Name()).second)
-          << model.Image(image_id).Name() << " is in two models";
-    }
-    num_registered += model.NumRegImages();
-    const ModelEvaluation evaluation =
-        Evaluate(model_path, scene_->GroundTruthPath());
-    EXPECT_LT(evaluation.median_position_error, 1e-3 * evaluation.extent);
-  }
-  EXPECT_GE(model_paths.size(), 2);
-  EXPECT_GE(num_registered, 147);
 }
 
 // Two landmarks with identical towers that no camera links: the only

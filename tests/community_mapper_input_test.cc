@@ -9,8 +9,11 @@
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
+#include <map>
+#include <regex>
 
 #include <boost/filesystem.hpp>
+
 #include <gtest/gtest.h>
 
 namespace colmap {
@@ -30,6 +33,20 @@ int RunCommunityMapper(const std::string& database_path,
                        std::string* output) {
   return RunCommand(std::string(COLMAP_BINARY) +
                         " community_mapper --database_path " +
+                        ShellQuote(database_path) + " --image_path " +
+                        ShellQuote(image_path) + " --output_path " +
+                        ShellQuote(output_path) + " " + extra_arguments,
+                    output);
+}
+
+// `colmap community_partitioner` on them.
+int RunPartitioner(const std::string& database_path,
+                   const std::string& image_path,
+                   const std::string& output_path,
+                   const std::string& extra_arguments,
+                   std::string* output) {
+  return RunCommand(std::string(COLMAP_BINARY) +
+                        " community_partitioner --database_path " +
                         ShellQuote(database_path) + " --image_path " +
                         ShellQuote(image_path) + " --output_path " +
                         ShellQuote(output_path) + " " + extra_arguments,
@@ -153,7 +170,7 @@ TEST_F(CommunityMapperInputTest, ImagesThatFailFeatureExtraction) {
 TEST_F(CommunityMapperInputTest, TooFewInliersForTheThreshold) {
   // The pairs have 50 inliers; asking for 60 leaves none.
   ExpectRefusal(good_database_,
-                "--CommunityMapper.min_num_matches 60",
+                "--Mapper.min_num_matches 60",
                 "no verified image pairs with at least 60 inlier matches");
 }
 
@@ -188,11 +205,13 @@ TEST_F(CommunityMapperInputTest, InvalidOptionValues) {
                 "--CommunityMapper.max_community_fraction 0",
                 "max_community_fraction is 0: it must be in (0, 1]");
   ExpectRefusal(good_database_,
-                "--CommunityMapper.max_part_conductance 1.5",
-                "max_part_conductance is 1.5: it must be in (0, 1]");
+                "--CommunityMapper.partition_max_part_conductance 1.5",
+                "--CommunityMapper.partition_max_part_conductance is 1.5: it "
+                "must be in (0, 1]");
   ExpectRefusal(good_database_,
-                "--CommunityMapper.max_joined_part_fraction 1",
-                "max_joined_part_fraction is 1: it must be in [0, 1)");
+                "--CommunityMapper.partition_max_joined_part_fraction 1",
+                "--CommunityMapper.partition_max_joined_part_fraction is 1: "
+                "it must be in [0, 1)");
   ExpectRefusal(good_database_,
                 "--CommunityMapper.edge_weights inliers",
                 "edge_weights is 'inliers': use 'unit' or 'num_inliers'");
@@ -211,14 +230,17 @@ TEST_F(CommunityMapperInputTest, InvalidOptionValues) {
                 "--CommunityMapper.ba_function_tolerance -1",
                 "ba_function_tolerance is -1: it must be 0 or more");
   ExpectRefusal(good_database_,
-                "--CommunityMapper.ba_initial_trust_region_radius 0",
-                "ba_initial_trust_region_radius is 0: it must be positive");
+                "--CommunityMapper.ba_max_refinement_change -0.5",
+                "--CommunityMapper.ba_max_refinement_change is -0.5: it must "
+                "be 0 or more");
   ExpectRefusal(good_database_,
-                "--CommunityMapper.triangulation_filter_factor -1",
-                "triangulation_filter_factor is -1: it must be 0 or more");
+                "--CommunityMapper.pairwise_min_num_inliers 2",
+                "--CommunityMapper.pairwise_min_num_inliers is 2: it must be "
+                "at least 3");
   ExpectRefusal(good_database_,
-                "--CommunityMapper.max_refinement_change -0.5",
-                "max_refinement_change is -0.5: it must be 0 or more");
+                "--CommunityMapper.averaging_max_log_scale_residual 0",
+                "--CommunityMapper.averaging_max_log_scale_residual is 0: it "
+                "must be positive");
 }
 
 TEST_F(CommunityMapperInputTest, OutputPathIsAFile) {
@@ -262,11 +284,7 @@ TEST_F(CommunityMapperInputTest, EarlierResultsAreNotReplacedSilently) {
     std::ofstream(JoinPaths(model_path, name)) << name;
   }
   std::string output;
-  EXPECT_EQ(RunCommunityMapper(good_database_,
-                               image_path_,
-                               output_path_,
-                               "--CommunityMapper.partition_only 1",
-                               &output),
+  EXPECT_EQ(RunPartitioner(good_database_, image_path_, output_path_, "", &output),
             EXIT_FAILURE);
   EXPECT_NE(output.find("already holds results of an earlier run"),
             std::string::npos)
@@ -276,12 +294,11 @@ TEST_F(CommunityMapperInputTest, EarlierResultsAreNotReplacedSilently) {
   EXPECT_FALSE(ExistsFile(JoinPaths(output_path_, "communities.txt")));
 
   // With permission, the run goes ahead.
-  EXPECT_EQ(RunCommunityMapper(good_database_,
-                               image_path_,
-                               output_path_,
-                               "--CommunityMapper.partition_only 1 "
-                               "--CommunityMapper.overwrite 1",
-                               &output),
+  EXPECT_EQ(RunPartitioner(good_database_,
+                           image_path_,
+                           output_path_,
+                           "--CommunityMapper.overwrite 1",
+                           &output),
             0)
       << output;
   EXPECT_TRUE(ExistsFile(JoinPaths(output_path_, "communities.txt")));
@@ -310,24 +327,52 @@ TEST_F(CommunityMapperInputTest, OptionsBesideAProjectFileAreRefused) {
   }
 }
 
-TEST_F(CommunityMapperInputTest, HelpListsEveryOptionWithItsDefault) {
-  std::string output;
-  EXPECT_EQ(
-      RunCommand(std::string(COLMAP_BINARY) + " community_mapper -h", &output),
+// The help lists at most 25 --CommunityMapper options, and docs/options.md
+// exactly those, with the same defaults.
+TEST_F(CommunityMapperInputTest, HelpMatchesTheOptionsDoc) {
+  std::string help;
+  ASSERT_EQ(
+      RunCommand(std::string(COLMAP_BINARY) + " community_mapper -h", &help),
       0);
-  for (const std::string option :
-       {"--CommunityMapper.modularity_threshold arg (=0.29999",
-        "--CommunityMapper.min_community_size arg (=20)",
-        "--CommunityMapper.max_part_conductance arg (=0.2999",
-        "--CommunityMapper.min_num_matches arg (=-1)",
-        "--CommunityMapper.edge_weights arg (=unit)",
-        "--CommunityMapper.partition_only arg (=0)",
-        "--CommunityMapper.num_workers arg (=-1)",
-        "--CommunityMapper.overwrite arg (=0)",
-        "--CommunityMapper.community_ba_global_ratio arg (=1.3999",
-        "--Mapper.min_num_matches arg (=15)",
-        "--project_path"}) {
-    EXPECT_NE(output.find(option), std::string::npos) << option;
+  EXPECT_NE(help.find("--Mapper.min_num_matches arg (=15)"), std::string::npos);
+  EXPECT_NE(help.find("--project_path"), std::string::npos);
+  std::map<std::string, std::string> help_defaults;
+  const std::regex help_option(
+      R"(--CommunityMapper\.([a-z_0-9]+) arg \(=([^)]*)\))");
+  for (std::sregex_iterator it(help.begin(), help.end(), help_option), end;
+       it != end;
+       ++it) {
+    help_defaults[(*it)[1]] = (*it)[2];
+  }
+  EXPECT_GE(help_defaults.size(), 9);
+  EXPECT_LE(help_defaults.size(), 25);
+
+  const std::string doc =
+      ReadFile(JoinPaths(std::string(SOURCE_DIR), "docs", "options.md"));
+  std::map<std::string, std::string> doc_defaults;
+  const std::regex doc_option(R"(\n\| `([a-z_0-9]+)` \| ([^ |]*) \|)");
+  for (std::sregex_iterator it(doc.begin(), doc.end(), doc_option), end;
+       it != end;
+       ++it) {
+    doc_defaults[(*it)[1]] = (*it)[2];
+  }
+  EXPECT_EQ(doc_defaults.size(), help_defaults.size())
+      << "regenerate docs/options.md: build/community_mapper_options_doc > "
+         "docs/options.md";
+  for (const auto& help_default : help_defaults) {
+    const std::string& name = help_default.first;
+    const std::string& value = help_default.second;
+    const auto it = doc_defaults.find(name);
+    ASSERT_NE(it, doc_defaults.end()) << name << " is not in docs/options.md";
+    // The help prints doubles to 17 digits (0.29999999999999999).
+    char* end = nullptr;
+    const double help_value = std::strtod(value.c_str(), &end);
+    if (end != value.c_str() && *end == '\0') {
+      EXPECT_NEAR(std::stod(it->second), help_value, 1e-9 * std::abs(help_value))
+          << name;
+    } else {
+      EXPECT_EQ(it->second, value) << name;
+    }
   }
 }
 

@@ -7,6 +7,7 @@
 #include "colmap_ext/scene/community_io.h"
 #include "colmap_ext/scene/community_workspace.h"
 #include "colmap_ext/scene/model_evaluation.h"
+#include "colmap_ext/sfm/community_merge.h"
 #include "colmap_ext/sfm/community_merger.h"
 #include "colmap_ext/util/atomic_output.h"
 #include "colmap_ext/util/testing.h"
@@ -183,6 +184,16 @@ TEST_F(CommunityMapperStages, KilledRunResumesWithTheSameResult) {
       }
     }
   }
+  // A second run on the same OUT while the first writes it is refused,
+  // naming the first.
+  std::string second_log;
+  EXPECT_NE(RunCommand(Command("community_mapper", out), &second_log), 0);
+  EXPECT_NE(second_log.find("Another run is writing " + out),
+            std::string::npos)
+      << second_log;
+  EXPECT_NE(second_log.find("process " + std::to_string(pid) + " on host"),
+            std::string::npos)
+      << second_log;
   RunCommand("kill -9 " + std::to_string(pid));
   ASSERT_FALSE(finished.empty()) << ReadTextFile(first_log);
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
@@ -197,8 +208,21 @@ TEST_F(CommunityMapperStages, KilledRunResumesWithTheSameResult) {
       << "the run finished every community before it was killed";
   EXPECT_FALSE(ExistsDir(JoinPaths(out, "0")));
 
+  // The killed run's lock is taken over.
   std::string log;
   ASSERT_EQ(RunCommand(Command("community_mapper", out), &log), 0) << log;
+  EXPECT_NE(log.find("Taking over the lock"), std::string::npos) << log;
+  EXPECT_FALSE(ExistsFile(JoinPaths(out, "lock")));
+  // The summary counts the view graph's images on a reused plan too.
+  const std::smatch registered = [&log] {
+    std::smatch match;
+    std::regex_search(
+        log, match, std::regex("Registered ([0-9]+) of ([0-9]+) images"));
+    return match;
+  }();
+  ASSERT_EQ(registered.size(), 3) << log;
+  EXPECT_GT(std::stoi(registered[2]), 0);
+  EXPECT_LE(std::stoi(registered[1]), std::stoi(registered[2]));
   std::string reused = "this plan:";
   for (const int c : finished) {
     reused += " " + std::to_string(c);
@@ -436,21 +460,28 @@ TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
   // Where nothing confirms the second model's links (here: bridges need
   // more shared images than any link has), it leaves the merge in doubt;
   // its model still joins, as a block through a few of its images
-  // registered one by one, into one model as accurate.
-  const std::string unconfirmed_log =
-      merge("second-model-unconfirmed",
-            /*keep_second=*/true,
-            " --CommunityMapper.min_num_shared_images_on_bridge 1000");
-  EXPECT_NE(unconfirmed_log.find("nothing confirms its similarities"),
-            std::string::npos)
-      << unconfirmed_log;
-  EXPECT_NE(unconfirmed_log.find("of an offered community model as one block"),
-            std::string::npos)
-      << unconfirmed_log;
-  const ModelEvaluation unconfirmed = CompareWithGroundTruth(
-      JoinPaths(*root_, "second-model-unconfirmed", "0"));
+  // registered one by one, into one model as accurate (the merge stage in
+  // this process, with that setting).
+  merge("second-model-unconfirmed", /*keep_second=*/true);
+  CommunityMergeOptions options;
+  options.database_path = DatabasePath();
+  options.incremental_options.num_threads = 1;
+  options.similarity_averaging.min_num_shared_images_on_bridge = 1000;
+  const CommunityMergeResult unconfirmed_result = MergeCommunities(
+      options,
+      plan,
+      CommunityWorkspace(JoinPaths(*root_, "second-model-unconfirmed")));
+  const int extra = plan.NumCommunities();
+  ASSERT_GT(unconfirmed_result.community_excluded.size(), extra);
+  EXPECT_TRUE(unconfirmed_result.community_excluded[extra]);
+  EXPECT_TRUE(unconfirmed_result.community_judgements[extra].doubtful);
+  ASSERT_EQ(unconfirmed_result.models.size(), 1);
+  const std::string unconfirmed_path =
+      JoinPaths(*root_, "second-model-unconfirmed", "0");
+  WriteReconstructionAtomically(*unconfirmed_result.models[0],
+                                unconfirmed_path);
+  const ModelEvaluation unconfirmed = CompareWithGroundTruth(unconfirmed_path);
   EXPECT_GE(unconfirmed.num_registered_images, reference.num_registered_images);
-  EXPECT_FALSE(ExistsDir(JoinPaths(*root_, "second-model-unconfirmed", "1")));
   ASSERT_TRUE(unconfirmed.aligned);
   EXPECT_LT(unconfirmed.median_position_error,
             1.5 * reference.median_position_error + 1e-4 * reference.extent);

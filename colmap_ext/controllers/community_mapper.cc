@@ -1,12 +1,11 @@
 #include "colmap_ext/controllers/community_mapper.h"
 
 #include "colmap_ext/scene/community_io.h"
-#include "colmap_ext/sfm/community_alignment.h"
 #include "colmap_ext/sfm/community_reconstruction.h"
-#include "colmap_ext/sfm/part_offers.h"
 #include "colmap_ext/util/atomic_output.h"
 #include "colmap_ext/util/database_retry.h"
 #include "colmap_ext/util/log_tag.h"
+#include "colmap_ext/util/option_check.h"
 #include "colmap_ext/util/process_memory.h"
 
 #include "colmap/math/math.h"
@@ -24,7 +23,6 @@
 namespace colmap {
 namespace {
 
-using Models = std::vector<std::shared_ptr<Reconstruction>>;
 
 // The database's fingerprint (community_workspace.h), its opening tried
 // again while another task of a job array holds the database
@@ -64,806 +62,19 @@ double OwnCameraFraction(const std::string& database_path,
   return num_found == 0 ? 0.0 : static_cast<double>(num_own) / num_found;
 }
 
-// Where the memory stands after a step (for a long run's log).
-void LogMemory(const std::string& step) {
-  LOG(INFO) << "Memory after " << step << ": "
-            << ProcessMemoryToString(ReadProcessMemory());
-}
 
-// The own images of every community, by the plan (the merge adds its extra
-// communities).
-struct CommunityImages {
-  std::vector<std::unordered_set<image_t>> own_image_ids;
-  std::unordered_map<image_t, std::string> name_of_image;
-  std::unordered_map<image_t, int> community_of_image;
-};
-
-CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
-                                       const CommunityPlan& plan) {
-  std::unordered_map<std::string, image_t> image_of_name;
-  for (size_t vertex = 0; vertex < view_graph.NumVertices(); ++vertex) {
-    image_of_name.emplace(view_graph.ImageNames()[vertex],
-                          view_graph.ImageIds()[vertex]);
-  }
-  CommunityImages groups;
-  groups.own_image_ids.resize(plan.NumCommunities());
-  for (int c = 0; c < plan.NumCommunities(); ++c) {
-    for (const std::string& name : plan.communities[c].own_image_names) {
-      const image_t image_id = image_of_name.at(name);
-      groups.own_image_ids[c].insert(image_id);
-      groups.name_of_image.emplace(image_id, name);
-      groups.community_of_image.emplace(image_id, c);
-    }
-  }
-  return groups;
-}
-
-// Community `record.community_id`'s other models, as its stage wrote them
-// into `workspace` (largest first), each become an extra community if they
-// registered at least `min_model_size` of the community's own images that
-// no larger model of it taking part did. The extra community, numbered after
-// those in `models`, owns those images (the community keeps the others):
-// its shape is the mapper's, joined by a similarity as any community's,
-// instead of its images being registered anew one by one into the merged
-// model. Its report and origin are added to `summary`.
-void AddExtraCommunities(const CommunityWorkspace& workspace,
-                         const CommunityRecord& record,
-                         const int min_model_size,
-                         CommunityImages* communities,
-                         Models* models,
-                         std::vector<std::string>* model_paths,
-                         CommunityMapperController::Summary* summary) {
-  const int c = record.community_id;
-  std::unordered_set<image_t> taken_image_ids(
-      (*models)[c]->RegImageIds().begin(), (*models)[c]->RegImageIds().end());
-  for (int index = 1; index <= record.num_other_models; ++index) {
-    auto other_model = std::make_shared<Reconstruction>();
-    const std::string path = workspace.CommunityOtherModelPath(c, index);
-    other_model->Read(path);
-    std::unordered_set<image_t> owned_image_ids;
-    for (const image_t image_id : other_model->RegImageIds()) {
-      if (communities->own_image_ids[c].count(image_id) > 0 &&
-          taken_image_ids.count(image_id) == 0) {
-        owned_image_ids.insert(image_id);
-      }
-    }
-    if (static_cast<int>(owned_image_ids.size()) < min_model_size) {
-      LOG(INFO) << StringPrintf(
-          "Community %d's model %d of %d holds %d of its own images that no "
-          "larger model of it holds: too few to take part",
-          c,
-          index + 1,
-          record.num_models,
-          static_cast<int>(owned_image_ids.size()));
-      continue;
-    }
-    taken_image_ids.insert(other_model->RegImageIds().begin(),
-                           other_model->RegImageIds().end());
-    const int extra = static_cast<int>(models->size());
-    LOG(INFO) << StringPrintf(
-        "Community %d's model %d of %d (%d images, %d of its own that no "
-        "larger model of it holds) takes part as community %d",
-        c,
-        index + 1,
-        record.num_models,
-        static_cast<int>(other_model->NumRegImages()),
-        static_cast<int>(owned_image_ids.size()),
-        extra);
-    for (const image_t image_id : owned_image_ids) {
-      communities->own_image_ids[c].erase(image_id);
-      communities->community_of_image[image_id] = extra;
-    }
-    communities->own_image_ids.push_back(std::move(owned_image_ids));
-    CommunityModelReport report = summary->community_reports[c];
-    report.num_registered = static_cast<int>(other_model->NumRegImages());
-    report.mean_reprojection_error =
-        other_model->ComputeMeanReprojectionError();
-    report.model_index = index + 1;
-    summary->community_reports.push_back(report);
-    summary->extra_community_origins.push_back(c);
-    models->push_back(std::move(other_model));
-    model_paths->push_back(path);
-  }
-}
-
-// The images of `image_ids` that are not in `taken_image_ids`.
-template <typename ImageIds>
-std::unordered_set<image_t> ImagesNotTaken(
-    const ImageIds& image_ids,
-    const std::unordered_set<image_t>& taken_image_ids) {
-  std::unordered_set<image_t> left_image_ids;
-  for (const image_t image_id : image_ids) {
-    if (taken_image_ids.count(image_id) == 0) {
-      left_image_ids.insert(image_id);
-    }
-  }
-  return left_image_ids;
-}
-
-// Joins the communities of one part (connected by kept similarities) into
-// one model in the global frame, merges their corresponding points and
-// refines the result on the part's own images plus `extra_image_names`
-// (images of communities without a model or that left the merge, and of
-// parts offered to this one, which the refinement tries to register). Own
-// images in `taken_image_ids` (registered by an earlier part's model) are
-// left out. `offered_models` are the models (their own images only) of the
-// communities of parts offered to this one and of those offered to it
-// that left the merge for want of a confirmed link, which the refinement
-// registers as blocks where it can. The communities' own models are
-// consumed. Adds the seconds spent in the refinement to
-// `refinement_seconds`.
-std::shared_ptr<Reconstruction> MergePart(
-    const CommunityMapperController::Options& options,
-    const std::vector<int>& part_communities,
-    const CommunityImages& communities,
-    const std::vector<RelativeSimilarity>& similarities,
-    const SimilarityAveragingResult& averaging,
-    const std::unordered_set<std::string>& extra_image_names,
-    const std::unordered_set<image_t>& taken_image_ids,
-    const std::unordered_set<image_pair_t>& false_pairs,
-    const ViewGraph& view_graph,
-    const std::vector<std::shared_ptr<const Reconstruction>>& offered_models,
-    Models* models,
-    double* refinement_seconds) {
-  LOG(INFO) << "Merging communities" << [&] {
-    std::string ids;
-    for (const int c : part_communities) ids += " " + std::to_string(c);
-    return ids;
-  }();
-  std::vector<Reconstruction*> part_models;
-  std::vector<Sim3d> world_from_community;
-  std::vector<std::unordered_set<image_t>> owned_image_ids;
-  std::unordered_set<std::string> part_image_names = extra_image_names;
-  std::map<int, size_t> index_in_part;
-  std::unordered_map<image_t, int> community_of_image;
-  for (const int c : part_communities) {
-    for (const image_t image_id : communities.own_image_ids[c]) {
-      community_of_image.emplace(image_id, c);
-    }
-    index_in_part.emplace(c, part_models.size());
-    part_models.push_back((*models)[c].get());
-    world_from_community.push_back(averaging.world_from_community[c]);
-    owned_image_ids.push_back(
-        ImagesNotTaken(communities.own_image_ids[c], taken_image_ids));
-    for (const image_t image_id : owned_image_ids.back()) {
-      part_image_names.insert(communities.name_of_image.at(image_id));
-    }
-  }
-  // An image left without any pair (all contradicting the merge) cannot be
-  // refined: it stays out. (The view graph tells, before the models are
-  // joined and released, which images the correspondences will hold.)
-  std::unordered_set<image_t> connected_image_ids;
-  for (const ViewGraph::Edge& edge : view_graph.Edges()) {
-    const image_t image_id1 = view_graph.ImageIds()[edge.vertex1];
-    const image_t image_id2 = view_graph.ImageIds()[edge.vertex2];
-    if (part_image_names.count(view_graph.ImageNames()[edge.vertex1]) &&
-        part_image_names.count(view_graph.ImageNames()[edge.vertex2]) &&
-        !false_pairs.count(Database::ImagePairToPairId(image_id1, image_id2))) {
-      connected_image_ids.insert(image_id1);
-      connected_image_ids.insert(image_id2);
-    }
-  }
-  for (std::unordered_set<image_t>& image_ids : owned_image_ids) {
-    for (auto it = image_ids.begin(); it != image_ids.end();) {
-      if (connected_image_ids.count(*it)) {
-        ++it;
-      } else {
-        LOG(WARNING) << "Image " << communities.name_of_image.at(*it)
-                     << " has no image pair left in the merged model; it is "
-                        "left out.";
-        it = image_ids.erase(it);
-      }
-    }
-  }
-  auto merged = std::make_shared<Reconstruction>();
-  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
-  JoinReconstructions(part_models,
-                      world_from_community,
-                      owned_image_ids,
-                      merged.get(),
-                      &point3D_ids);
-  if (options.align_pose_graph) {
-    Timer timer;
-    timer.Start();
-    const PoseGraphAlignmentSummary pose_graph =
-        AlignPoseGraph(std::vector<const Reconstruction*>(part_models.begin(),
-                                                          part_models.end()),
-                       owned_image_ids,
-                       options.pose_graph,
-                       merged.get());
-    LOG(INFO) << StringPrintf(
-        "Pose graph of %d cameras, %d edges, %d ties between the copies of "
-        "one image (largest disagreement %.2f deg, %.2f edge lengths; %d "
-        "dropped): cost %.4g -> %.4g, cameras moved by %.3f (median), %.3f "
-        "(max) edge lengths (%.1fs)",
-        pose_graph.num_images,
-        pose_graph.num_edges,
-        pose_graph.num_ties,
-        pose_graph.max_tie_rotation_deg,
-        pose_graph.max_tie_distance,
-        pose_graph.num_dropped_ties,
-        pose_graph.initial_cost,
-        pose_graph.final_cost,
-        pose_graph.median_relative_movement,
-        pose_graph.max_relative_movement,
-        timer.ElapsedSeconds());
-  }
-  for (const int c : part_communities) {
-    (*models)[c].reset();  // Joined: the community's copy is not needed.
-  }
-  ReleaseFreedMemory();
-
-  std::vector<std::pair<point3D_t, point3D_t>> corresponding_points;
-  for (size_t e = 0; e < similarities.size(); ++e) {
-    if (!averaging.edges[e].kept ||
-        averaging.part_of_community[similarities[e].community1] !=
-            averaging.part_of_community[part_communities[0]]) {
-      continue;
-    }
-    const auto& ids1 =
-        point3D_ids[index_in_part.at(similarities[e].community1)];
-    const auto& ids2 =
-        point3D_ids[index_in_part.at(similarities[e].community2)];
-    for (const auto& pair : similarities[e].point3D_ids) {
-      const auto it1 = ids1.find(pair.first);
-      const auto it2 = ids2.find(pair.second);
-      if (it1 != ids1.end() && it2 != ids2.end()) {
-        corresponding_points.emplace_back(it1->second, it2->second);
-      }
-    }
-  }
-  const size_t num_merged_points =
-      MergeCorrespondingPoints(corresponding_points, merged.get());
-  LOG(INFO) << StringPrintf(
-      "Joined %d images and %d points; merged %d corresponding points",
-      static_cast<int>(merged->NumRegImages()),
-      static_cast<int>(merged->NumPoints3D()),
-      static_cast<int>(num_merged_points));
-  LogMemory("joining the models");
-
-  // The correspondences, once the communities' models are released and
-  // the joined cameras aligned (RefineMergedModel).
-  const auto load_correspondences = [&]() {
-    std::shared_ptr<DatabaseCache> database_cache;
-    {
-      const Database database(options.database_path);
-      database_cache = DatabaseCache::Create(
-          database,
-          static_cast<size_t>(options.MinNumMatches()),
-          options.incremental_options.ignore_watermarks,
-          part_image_names,
-          [&false_pairs](const image_t image_id1, const image_t image_id2) {
-            return false_pairs.count(
-                       Database::ImagePairToPairId(image_id1, image_id2)) == 0;
-          });
-    }
-    // Building the correspondence graph grows a vector per keypoint and
-    // then flattens them; the freed vectors would stay resident through the
-    // refinement (see ReleaseFreedMemory).
-    ReleaseFreedMemory();
-    for (const image_t image_id : merged->RegImageIds()) {
-      THROW_CHECK(database_cache->ExistsImage(image_id))
-          << "image " << merged->Image(image_id).Name()
-          << " has no correspondences";
-    }
-    LogMemory("loading the correspondences");
-    return std::shared_ptr<const DatabaseCache>(std::move(database_cache));
-  };
-
-  Timer timer;
-  timer.Start();
-  const MergedModelRefinementSummary refinement =
-      RefineMergedModel(options.refinement,
-                        options.incremental_options,
-                        load_correspondences,
-                        community_of_image,
-                        offered_models,
-                        merged);
-  *refinement_seconds += timer.ElapsedSeconds();
-  LogMemory("the refinement");
-  LOG(INFO) << StringPrintf(
-      "Merged model: %d images, %d points, mean reprojection error %.3f px "
-      "(%.3f px before refinement), %d images newly registered (%d as "
-      "blocks), %d misplaced ones registered again",
-      static_cast<int>(merged->NumRegImages()),
-      static_cast<int>(merged->NumPoints3D()),
-      refinement.final_mean_reprojection_error,
-      refinement.initial_mean_reprojection_error,
-      refinement.num_newly_registered_images,
-      refinement.num_block_registered_images,
-      refinement.num_reregistered_images);
-  if (options.incremental_options.extract_colors) {
-    merged->ExtractColorsForAllImages(options.image_path);
-  }
-  return merged;
-}
-
-// The closing summary of a run.
-void LogSummary(const CommunityMapperController::Summary& summary) {
-  PrintHeading1("Community mapper summary");
-  // (A merge that stopped early judged nothing.)
-  const auto left_the_merge = [&summary](const size_t c) {
-    return c < summary.community_excluded.size() &&
-                   summary.community_excluded[c]
-               ? ", left the merge"
-               : "";
-  };
-  for (size_t c = 0; c < summary.community_sizes.size() &&
-                     c < summary.community_reports.size();
-       ++c) {
-    const CommunityModelReport& report = summary.community_reports[c];
-    LOG(INFO) << StringPrintf(
-        "Community %d: %d images, %d registered%s%s",
-        static_cast<int>(c),
-        summary.community_sizes[c],
-        report.num_registered,
-        report.num_models > 1 ? " (largest of several models)" : "",
-        left_the_merge(c));
-  }
-  for (size_t e = 0; e < summary.extra_community_origins.size(); ++e) {
-    const size_t c = summary.community_sizes.size() + e;
-    LOG(INFO) << StringPrintf(
-        "Community %d (model %d of community %d): %d registered%s",
-        static_cast<int>(c),
-        summary.community_reports[c].model_index,
-        summary.extra_community_origins[e],
-        summary.community_reports[c].num_registered,
-        left_the_merge(c));
-  }
-  LOG(INFO) << StringPrintf(
-      "Community pairs: %d joined by view-graph edges, %d with a similarity, "
-      "%d kept, %d dropped",
-      summary.num_community_pairs,
-      summary.num_estimated_similarities,
-      summary.num_kept_similarities,
-      summary.num_estimated_similarities - summary.num_kept_similarities);
-  if (!summary.reused_communities.empty()) {
-    std::string ids;
-    for (const int c : summary.reused_communities) {
-      ids += " " + std::to_string(c);
-    }
-    LOG(INFO) << "Communities reused from an earlier run of this plan:" << ids;
-  }
-  int num_registered = 0;
-  for (size_t m = 0; m < summary.model_num_registered.size(); ++m) {
-    LOG(INFO) << StringPrintf("Model %d: %d images",
-                              static_cast<int>(m),
-                              summary.model_num_registered[m]);
-    num_registered += summary.model_num_registered[m];
-  }
-  LOG(INFO) << StringPrintf(
-      "Registered %d of %d images in %d model(s)",
-      num_registered,
-      summary.num_view_graph_images,
-      static_cast<int>(summary.model_num_registered.size()));
-  for (const auto& phase : summary.phase_seconds) {
-    LOG(INFO) << StringPrintf(
-        "Time %-28s %9.3fs", (phase.first + ":").c_str(), phase.second);
-  }
-  LOG(INFO) << StringPrintf("Peak memory: %.0f MB", summary.peak_memory_mb);
-}
-
-// The communities' models as their stage left them in `workspace` (none
-// for a community that registered nothing), the plan's first, then, with
-// `options.merge_other_models`, the extra communities (AddExtraCommunities),
-// with their paths; their reports go to `summary`.
-void ReadCommunityModels(const CommunityMapperController::Options& options,
-                         const CommunityWorkspace& workspace,
-                         const int num_plan_communities,
-                         CommunityImages* communities,
-                         Models* models_ptr,
-                         std::vector<std::string>* model_paths,
-                         CommunityMapperController::Summary* summary) {
-  Models& models = *models_ptr;
-  models.assign(num_plan_communities, nullptr);
-  model_paths->clear();
-  std::vector<CommunityRecord> records;
-  summary->community_reports.assign(num_plan_communities,
-                                    CommunityModelReport());
-  for (int c = 0; c < num_plan_communities; ++c) {
-    records.push_back(CommunityRecordFromText(
-        ReadTextFile(workspace.CommunityRecordPath(c))));
-    const CommunityRecord& record = records.back();
-    CommunityModelReport& report = summary->community_reports[c];
-    report.num_images = record.num_images;
-    report.num_registered = record.num_registered;
-    report.num_models = record.num_models;
-    report.mean_reprojection_error = record.mean_reprojection_error;
-    model_paths->push_back(workspace.CommunityModelPath(c));
-    if (record.num_registered > 0) {
-      models[c] = std::make_shared<Reconstruction>();
-      models[c]->Read(model_paths->back());
-    }
-  }
-  // Where a community's mapper made several models, the others take part
-  // as extra communities (AddExtraCommunities).
-  summary->extra_community_origins.clear();
-  for (int c = 0; c < num_plan_communities; ++c) {
-    if (models[c] && options.merge_other_models) {
-      AddExtraCommunities(workspace,
-                          records[c],
-                          options.incremental_options.min_model_size,
-                          communities,
-                          models_ptr,
-                          model_paths,
-                          summary);
-    }
-  }
-}
-
-// Judges every community's own model (JudgeCommunityModels: broken ones
-// leave the merge, doubtful ones count little) and averages the
-// similarities between them; where rejected similarities may join parts
-// (Options::join_parts_by_rejected_links), averages again with them, and
-// those that join move from the rejected ones to the similarities (their
-// pairs are no false pairs any more). Logs each link's residuals and fate.
-// Fills the judgements and the links of `summary`.
-SimilarityAveragingResult JudgeAndAverage(
-    const CommunityMapperController::Options& options,
-    CommunitySimilarities* community_similarities,
-    CommunityMapperController::Summary* summary) {
-  const int num_communities =
-      static_cast<int>(summary->community_reports.size());
-  summary->community_judgements =
-      JudgeCommunityModels(summary->community_reports, options.judgement);
-  std::vector<AveragedCommunity> averaged_communities(num_communities);
-  for (int c = 0; c < num_communities; ++c) {
-    const CommunityJudgement& judgement = summary->community_judgements[c];
-    averaged_communities[c].num_images =
-        summary->community_reports[c].num_registered;
-    averaged_communities[c].doubtful = judgement.doubtful;
-    averaged_communities[c].excluded = judgement.broken;
-    if (judgement.broken || judgement.doubtful) {
-      LOG(WARNING) << StringPrintf(
-          "Community %d is %s (%s)%s",
-          c,
-          judgement.broken ? "broken" : "in doubt",
-          judgement.reason.c_str(),
-          judgement.broken ? "" : ": it takes part with little weight.");
-    }
-  }
-  std::vector<RelativeSimilarity>& similarities =
-      community_similarities->similarities;
-  SimilarityAveragingResult averaging = AverageSimilarities(
-      averaged_communities, similarities, options.similarity_averaging);
-  std::vector<int> joined;
-  if (options.join_parts_by_rejected_links &&
-      JoinPartsByRejectedLinks(averaged_communities,
-                               community_similarities->rejected_similarities,
-                               options.similarity_averaging,
-                               &similarities,
-                               &averaging,
-                               &joined)) {
-    std::vector<RejectedSimilarity>& rejected =
-        community_similarities->rejected_similarities;
-    for (auto r = joined.rbegin(); r != joined.rend(); ++r) {
-      for (const image_pair_t pair_id : rejected[*r].pairs) {
-        community_similarities->false_pairs.erase(pair_id);
-      }
-      rejected.erase(rejected.begin() + *r);
-    }
-  }
-  summary->community_excluded = averaging.excluded;
-  summary->num_estimated_similarities = static_cast<int>(similarities.size());
-  summary->num_kept_similarities = 0;
-  for (size_t e = 0; e < similarities.size(); ++e) {
-    const auto& report = averaging.edges[e];
-    summary->num_kept_similarities += report.kept ? 1 : 0;
-    LOG(INFO) << StringPrintf(
-        "Communities %d-%d: residuals rotation %.3f deg, scale %.4f, "
-        "translation %.4f -> %s%s",
-        similarities[e].community1,
-        similarities[e].community2,
-        report.rotation_residual_deg,
-        report.log_scale_residual,
-        report.relative_translation_residual,
-        report.kept           ? "kept"
-        : report.contradicted ? "dropped before the averaging (the images "
-                                "both models registered contradict it)"
-        : report.unconfirmed  ? "dropped (on no cycle, and the images both "
-                                "models registered do not confirm it)"
-                              : "dropped",
-        e + joined.size() >= similarities.size()
-            ? " (rejected by the co-visibility check, joins two parts)"
-            : "");
-  }
-  return averaging;
-}
-
-// The cross pairs of rejected transforms (community_alignment.h), but those
-// of the transforms the merge confirms (Options::confirm_rejected_links).
-std::unordered_set<image_pair_t> FalsePairsAfterTheMerge(
-    const CommunityMapperController::Options& options,
-    const CommunitySimilarities& community_similarities,
-    const SimilarityAveragingResult& averaging) {
-  const std::vector<RelativeSimilarity>& similarities =
-      community_similarities.similarities;
-  std::unordered_set<image_pair_t> false_pairs =
-      community_similarities.false_pairs;
-  if (!options.confirm_rejected_links) {
-    return false_pairs;
-  }
-  for (const RejectedSimilarity& rejected :
-       community_similarities.rejected_similarities) {
-    const MergeResiduals residuals =
-        ResidualsAgainstMerge(rejected, similarities, averaging);
-    if (!residuals.joined) {
-      continue;  // Not joined through other links: nothing to confirm it.
-    }
-    const bool confirmed = residuals.WithinBounds(
-        options.similarity_averaging, options.rejected_link_max_drift_factor);
-    LOG(INFO) << StringPrintf(
-        "Communities %d-%d: the similarity the co-visibility check rejected "
-        "(%d inliers) against the merge: rotation %.3f deg, scale %.4f, "
-        "translation %.4f (links between them: resistance %.2f, bounds times "
-        "%.2f) -> %s",
-        rejected.similarity.community1,
-        rejected.similarity.community2,
-        static_cast<int>(rejected.similarity.points1.size()),
-        residuals.report.rotation_residual_deg,
-        residuals.report.log_scale_residual,
-        residuals.report.relative_translation_residual,
-        residuals.path_resistance,
-        residuals.DriftFactor(options.rejected_link_max_drift_factor),
-        confirmed ? StringPrintf("confirmed: its %d image pairs stay in the "
-                                 "refinement",
-                                 static_cast<int>(rejected.pairs.size()))
-                        .c_str()
-                  : "still rejected");
-    if (confirmed) {
-      for (const image_pair_t pair_id : rejected.pairs) {
-        false_pairs.erase(pair_id);
-      }
-    }
-  }
-  return false_pairs;
-}
-
-// Communities that the averaging sent out of the merge lose their model
-// here (their images are offered to the merged models); returns those
-// whose model is not broken, which keep the images no merged model
-// registers (MergeParts). `unconfirmed_communities` receives those of them
-// in doubt that left for want of a link their shared images confirm (no
-// evidence against their model, unlike links that disagree: such a model
-// may be bent), whose models may join as blocks.
-std::vector<int> SetAsideExcludedCommunities(
-    const std::vector<RelativeSimilarity>& similarities,
-    const SimilarityAveragingResult& averaging,
-    Models* models_ptr,
-    std::vector<int>* unconfirmed_communities,
-    CommunityMapperController::Summary* summary) {
-  const int num_communities = static_cast<int>(models_ptr->size());
-  std::vector<int> set_aside_communities;
-  Models& models = *models_ptr;
-  for (int c = 0; c < num_communities; ++c) {
-    if (averaging.excluded[c]) {
-      bool unconfirmed = false;
-      for (size_t e = 0; e < similarities.size(); ++e) {
-        unconfirmed = unconfirmed || ((similarities[e].community1 == c ||
-                                       similarities[e].community2 == c) &&
-                                      averaging.edges[e].unconfirmed);
-      }
-      LOG(WARNING) << StringPrintf(
-          "Community %d leaves the merge: %s. Its images are offered to the "
-          "merged model.",
-          c,
-          summary->community_judgements[c].broken ? "its model is broken"
-          : summary->community_judgements[c].doubtful
-              ? (unconfirmed ? "nothing confirms its similarities and its "
-                               "model is in doubt"
-                             : "its similarities disagree with the other "
-                               "communities' and its model is in doubt")
-              : "its similarities disagree with the other communities' "
-                "and it is small");
-      if (!summary->community_judgements[c].broken) {
-        set_aside_communities.push_back(c);
-        if (unconfirmed && summary->community_judgements[c].doubtful) {
-          unconfirmed_communities->push_back(c);
-        }
-      }
-      models[c].reset();
-    }
-  }
-  return set_aside_communities;
-}
-
-// Merges every part of the averaging (communities joined by kept
-// similarities) into one model (MergePart), largest parts first as the
-// averaging numbers them, each on the images no earlier part's model
-// registered plus those offered to it; a part left with fewer than two
-// images has no model, and a part of one community with nothing offered is
-// its model as it is. Then the set-aside communities keep, as models of
-// their own, the images no merged model registered (at least
-// Mapper.min_model_size of them). The models are consumed; the seconds
-// spent in the refinements are added to `refinement_seconds`.
-std::vector<std::shared_ptr<Reconstruction>> MergeParts(
-    const CommunityMapperController::Options& options,
-    const CommunityImages& communities,
-    const std::vector<RelativeSimilarity>& similarities,
-    const SimilarityAveragingResult& averaging,
-    const PartOffers& offers,
-    const std::vector<int>& set_aside_communities,
-    const std::unordered_set<image_pair_t>& false_pairs,
-    const ViewGraph& view_graph,
-    const std::vector<std::string>& model_paths,
-    Models* models_ptr,
-    double* refinement_seconds) {
-  Models& models = *models_ptr;
-  const int num_communities = static_cast<int>(models.size());
-  // By part: the names of the images offered to it.
-  std::map<int, std::unordered_set<std::string>> extra_image_names_of_part;
-  for (const auto& part_and_communities : offers.image_communities_of_part) {
-    for (const int c : part_and_communities.second) {
-      for (const image_t image_id : communities.own_image_ids[c]) {
-        extra_image_names_of_part[part_and_communities.first].insert(
-            communities.name_of_image.at(image_id));
-      }
-    }
-  }
-  // The models written, and the images they registered (which later parts
-  // and communities leave out).
-  std::vector<std::shared_ptr<Reconstruction>> merged_models;
-  std::unordered_set<image_t> registered_image_ids;
-  const auto keep_model = [&](std::shared_ptr<Reconstruction> model) {
-    registered_image_ids.insert(model->RegImageIds().begin(),
-                                model->RegImageIds().end());
-    merged_models.push_back(std::move(model));
-  };
-  // Community c's model restricted to its own images that no earlier
-  // model registered: `model` (its copy in memory), or as its stage wrote
-  // it if null.
-  const auto left_model = [&](const int c,
-                              std::shared_ptr<Reconstruction> model) {
-    if (!model) {
-      model = std::make_shared<Reconstruction>();
-      model->Read(model_paths[c]);
-    }
-    return RestrictToImages(
-        ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
-        std::move(model));
-  };
-  for (int part = 0; part < averaging.NumParts(); ++part) {
-    std::vector<int> part_communities;
-    size_t num_left_images = 0;
-    for (int c = 0; c < num_communities; ++c) {
-      if (averaging.part_of_community[c] != part || !models[c]) {
-        continue;
-      }
-      part_communities.push_back(c);
-      size_t num_taken = 0;
-      for (const image_t image_id : models[c]->RegImageIds()) {
-        if (communities.own_image_ids[c].count(image_id) == 0) {
-          continue;
-        }
-        if (registered_image_ids.count(image_id)) {
-          ++num_taken;
-        } else {
-          ++num_left_images;
-        }
-      }
-      if (num_taken > 0) {
-        LOG(INFO) << StringPrintf(
-            "Community %d: %d of its own images are in an earlier part's "
-            "model already",
-            c,
-            static_cast<int>(num_taken));
-      }
-    }
-    for (const image_t image_id : registered_image_ids) {
-      const auto it = communities.name_of_image.find(image_id);
-      if (it != communities.name_of_image.end()) {
-        extra_image_names_of_part[part].erase(it->second);
-      }
-    }
-    if (part_communities.empty()) {
-      continue;
-    }
-    // (Images offered to it could not register either: there would be no
-    // points to register them on.)
-    if (num_left_images < 2) {
-      LOG(WARNING) << StringPrintf(
-          "Part %d: fewer than 2 of its communities' own images are left to "
-          "it: no model for it.",
-          part);
-      for (const int c : part_communities) {
-        models[c].reset();
-      }
-      continue;
-    }
-    // A part of one community is taken as it is, unless images of other
-    // communities are offered to it.
-    if (part_communities.size() == 1 &&
-        extra_image_names_of_part[part].empty()) {
-      const int c = part_communities[0];
-      std::shared_ptr<Reconstruction> model = left_model(c, models[c]);
-      models[c].reset();
-      if (model->NumRegImages() < 2) {
-        LOG(WARNING) << StringPrintf(
-            "Community %d, alone in its part, registered fewer than 2 of its "
-            "own images: no model for it.",
-            c);
-        continue;
-      }
-      keep_model(std::move(model));
-      continue;
-    }
-    try {
-      // Offered parts come after the part they are offered to: their models
-      // are still there. Each keeps only its community's own images: those
-      // of its neighbours it registered came through cross-community pairs,
-      // which may be the repeated structure whose transform the merge
-      // rejected (two identical towers: the model registers its neighbour's
-      // images stacked on its own tower, and they agree with the stacking
-      // transform). A block then joins only through its own images that the
-      // refinement registered one by one.
-      // Those of communities that left the merge are read again.
-      std::vector<std::shared_ptr<const Reconstruction>> offered_models;
-      const auto offered = offers.model_communities_of_part.find(part);
-      if (offered != offers.model_communities_of_part.end()) {
-        for (const int c : offered->second) {
-          offered_models.push_back(left_model(c, models[c]));
-        }
-      }
-      std::shared_ptr<Reconstruction> merged =
-          MergePart(options,
-                    part_communities,
-                    communities,
-                    similarities,
-                    averaging,
-                    extra_image_names_of_part[part],
-                    registered_image_ids,
-                    false_pairs,
-                    view_graph,
-                    offered_models,
-                    &models,
-                    refinement_seconds);
-      if (merged->NumRegImages() < 2) {
-        LOG(WARNING) << StringPrintf(
-            "Part %d: its merged model holds fewer than 2 images: no model "
-            "for it.",
-            part);
-        continue;
-      }
-      keep_model(std::move(merged));
-    } catch (const std::exception& error) {
-      // Nothing is lost: the part's communities, as their stage wrote them,
-      // become models of their own.
-      LOG(ERROR) << "Merging communities failed: " << error.what()
-                 << "; each of them is written as a model of its own.";
-      for (const int c : part_communities) {
-        std::shared_ptr<Reconstruction> model =
-            left_model(c, /*model=*/nullptr);
-        if (model->NumRegImages() >= 2) {
-          keep_model(std::move(model));
-        }
-      }
-    }
-  }
-
-  // A community that left the merge keeps the images nobody registered as
-  // a model of its own, if there are as many as the incremental mapper
-  // keeps in a model (Mapper.min_model_size): it was in doubt or small.
-  for (const int c : set_aside_communities) {
-    std::shared_ptr<Reconstruction> model = left_model(c, /*model=*/nullptr);
-    if (static_cast<int>(model->NumRegImages()) >=
-        options.incremental_options.min_model_size) {
-      LOG(INFO) << StringPrintf(
-          "Community %d left the merge: %d of its images that no merged model "
-          "registered keep its model, as a model of its own",
-          c,
-          static_cast<int>(model->NumRegImages()));
-      keep_model(std::move(model));
-    }
-  }
-
-  return merged_models;
-}
 
 }  // namespace
 
-int CommunityMapperController::Options::MinNumMatches() const {
-  return min_num_matches > 0 ? min_num_matches
-                             : incremental_options.min_num_matches;
+CommunityMergeOptions CommunityMapperController::Options::MergeOptions()
+    const {
+  CommunityMergeOptions merge_options = merge;
+  merge_options.database_path = database_path;
+  merge_options.image_path = image_path;
+  merge_options.image_names = image_names;
+  merge_options.min_num_matches = incremental_options.min_num_matches;
+  merge_options.incremental_options = incremental_options;
+  return merge_options;
 }
 
 IncrementalMapperOptions
@@ -898,23 +109,26 @@ bool CommunityMapperController::Options::UsesMapperSchedule(
 }
 
 bool CommunityMapperController::Options::Check() const {
-  CHECK_OPTION(community_detection.Check());
-  CHECK_OPTION(min_num_matches == -1 || min_num_matches > 0);
-  CHECK_OPTION_GE(image_overlap, 0);
-  CHECK_OPTION_GE(num_workers, -1);
-  CHECK_OPTION_NE(num_workers, 0);
-  CHECK_OPTION(community_ba_function_tolerance == -1 ||
-               community_ba_function_tolerance >= 0);
-  CHECK_OPTION(community_ba_global_ratio == -1 ||
-               community_ba_global_ratio > 1);
-  CHECK_OPTION(pairwise_similarity.Check());
-  CHECK_OPTION(covisibility_check.Check());
-  CHECK_OPTION_GE(rejected_link_max_drift_factor, 1.0);
-  CHECK_OPTION(similarity_averaging.Check());
-  CHECK_OPTION(refinement.Check());
-  CHECK_OPTION(pose_graph.Check());
-  CHECK_OPTION(incremental_options.Check());
-  return true;
+  bool valid = community_detection.Check();
+  valid &= CheckFlag(
+      image_overlap >= 0, "image_overlap", image_overlap, "0 or more");
+  valid &= CheckFlag(num_workers > 0 || num_workers == -1,
+                     "num_workers",
+                     num_workers,
+                     "positive, or -1 for one per CPU core");
+  valid &= CheckFlag(
+      community_ba_function_tolerance >= 0 ||
+          community_ba_function_tolerance == -1,
+      "community_ba_function_tolerance",
+      community_ba_function_tolerance,
+      "0 or more, or -1 for --Mapper.ba_global_function_tolerance");
+  valid &= CheckFlag(community_ba_global_ratio > 1 ||
+                         community_ba_global_ratio == -1,
+                     "community_ba_global_ratio",
+                     community_ba_global_ratio,
+                     "greater than 1, or -1 for --Mapper.ba_global_images_ratio "
+                     "and --Mapper.ba_global_points_ratio");
+  return valid && MergeOptions().Check() && incremental_options.Check();
 }
 
 CommunityMapperController::CommunityMapperController(
@@ -942,7 +156,7 @@ bool CommunityMapperController::Partition() {
   const Database database(options_.database_path);
   database_fingerprint_ = DatabaseFingerprint(database);
   const ViewGraph view_graph =
-      ViewGraph::Read(database, options_.MinNumMatches(), options_.image_names);
+      ViewGraph::Read(database, options_.incremental_options.min_num_matches, options_.image_names);
   const ViewGraphEdgeWeight edge_weight = options_.edge_weight;
   const WeightedGraph graph = view_graph.ToWeightedGraph(edge_weight);
   const std::vector<std::vector<int>> components = graph.ConnectedComponents();
@@ -954,12 +168,12 @@ bool CommunityMapperController::Partition() {
       "component(s), the largest with %d images",
       summary_.num_view_graph_images,
       summary_.num_view_graph_edges,
-      options_.MinNumMatches(),
+      options_.incremental_options.min_num_matches,
       summary_.num_view_graph_components,
       components.empty() ? 0 : static_cast<int>(components[0].size()));
   if (view_graph.NumEdges() == 0) {
     LOG(ERROR) << "The database has no verified image pairs with at least "
-               << options_.MinNumMatches() << " inlier matches"
+               << options_.incremental_options.min_num_matches << " inlier matches"
                << (options_.image_names.empty()
                        ? ""
                        : " between two of the listed images")
@@ -1123,7 +337,7 @@ bool CommunityMapperController::ReconstructAndRecord(
           "own global adjustments",
           100 * own_camera_fraction);
     }
-    const CommunityReconstruction reconstruction = colmap::ReconstructCommunity(
+    const CommunityReconstruction reconstruction = colmap::ReconstructCommunityModels(
         std::make_shared<const IncrementalMapperOptions>(
             options_.CommunityIncrementalOptions(
                 image_names, num_threads, own_camera_fraction, only_community)),
@@ -1231,7 +445,6 @@ bool CommunityMapperController::CheckAllReconstructed() const {
         ids.c_str());
     return false;
   }
-
   return true;
 }
 
@@ -1239,174 +452,45 @@ bool CommunityMapperController::Merge() {
   if (!LoadPlan() || !CheckAllReconstructed()) {
     return false;
   }
-  // The merge gives the same model from the same community models, whatever
-  // ran them and whichever thread merges.
-  SetPRNGSeed(kDefaultPRNGSeed);
-  Timer phase_timer;
-  phase_timer.Start();
-  PrintHeading1("Global similarity averaging");
-  // One connection for the view graph and the cross edges' matches.
-  const Database database(options_.database_path);
-  const ViewGraph view_graph =
-      ViewGraph::Read(database, options_.MinNumMatches(), options_.image_names);
-  CommunityImages communities = GroupImagesByCommunity(view_graph, plan_);
-  summary_.community_of_image = communities.community_of_image;
-
-  // The communities, as their stage left them on disk: the plan's, then the
-  // extra ones.
-  Models models;
-  std::vector<std::string> model_paths;
-  ReadCommunityModels(options_,
-                      workspace_,
-                      plan_.NumCommunities(),
-                      &communities,
-                      &models,
-                      &model_paths,
-                      &summary_);
-
-  LogMemory("reading the community models");
-  const CrossEdges cross_edges =
-      GroupCrossEdges(view_graph, communities.community_of_image);
-  summary_.num_community_pairs = static_cast<int>(cross_edges.size());
-  CommunitySimilarities community_similarities = EstimateCommunitySimilarities(
-      database,
-      view_graph,
-      cross_edges,
-      std::vector<std::shared_ptr<const Reconstruction>>(models.begin(),
-                                                         models.end()),
-      options_.pairwise_similarity,
-      options_.covisibility_check,
-      options_.incremental_options.num_threads);
-  const SimilarityAveragingResult averaging =
-      JudgeAndAverage(options_, &community_similarities, &summary_);
-  const std::vector<RelativeSimilarity>& similarities =
-      community_similarities.similarities;
-  const std::unordered_set<image_pair_t> false_pairs =
-      FalsePairsAfterTheMerge(options_, community_similarities, averaging);
-  if (!false_pairs.empty()) {
-    LOG(INFO) << StringPrintf(
-        "%d image pairs between communities support only rejected "
-        "transforms: the refinement leaves them out.",
-        static_cast<int>(false_pairs.size()));
-  }
-  // Communities that left the merge but whose models are not broken: the
-  // images the merged models do not register keep their community's model,
-  // as a model of its own (the incremental mapper too writes the models it
-  // could not join). Read again from the workspace at the end.
-  std::vector<int> unconfirmed_communities;
-  const std::vector<int> set_aside_communities = SetAsideExcludedCommunities(
-      similarities, averaging, &models, &unconfirmed_communities, &summary_);
+  PrintHeading1("3. Pairwise similarities and global similarity averaging");
+  CommunityMergeResult result =
+      MergeCommunities(options_.MergeOptions(), plan_, workspace_);
+  summary_.num_view_graph_images = result.num_view_graph_images;
+  summary_.num_view_graph_edges = result.num_view_graph_edges;
+  summary_.community_reports = std::move(result.community_reports);
+  summary_.community_judgements = std::move(result.community_judgements);
+  summary_.community_excluded = std::move(result.community_excluded);
+  summary_.extra_community_origins = std::move(result.extra_community_origins);
+  summary_.community_of_image = std::move(result.community_of_image);
+  summary_.num_community_pairs = result.num_community_pairs;
+  summary_.num_estimated_similarities = result.num_estimated_similarities;
+  summary_.num_kept_similarities = result.num_kept_similarities;
   summary_.phase_seconds.emplace_back("Similarity averaging",
-                                      phase_timer.ElapsedSeconds());
-  LOG(INFO) << StringPrintf("Similarity averaging: %.3fs (%s)",
-                            phase_timer.ElapsedSeconds(),
-                            ProcessMemoryToString(ReadProcessMemory()).c_str());
-
-  PrintHeading1("Merging the communities and bundle adjustment");
-  phase_timer.Restart();
-  std::vector<bool> has_model(models.size());
-  for (size_t c = 0; c < models.size(); ++c) {
-    has_model[c] = models[c] != nullptr;
+                                      result.averaging_seconds);
+  summary_.phase_seconds.emplace_back("Merge", result.merge_seconds);
+  summary_.phase_seconds.emplace_back("Final bundle adjustment",
+                                      result.refinement_seconds);
+  summary_.peak_memory_mb = ReadProcessMemory().peak_resident_mb;
+  if (result.models.empty()) {
+    LOG(ERROR) << "No community could be reconstructed: no model written.";
+    return false;
   }
-  double refinement_seconds = 0.0;
-  std::vector<std::shared_ptr<Reconstruction>> merged_models =
-      MergeParts(options_,
-                 communities,
-                 similarities,
-                 averaging,
-                 PlanPartOffers(averaging.part_of_community,
-                                has_model,
-                                cross_edges,
-                                unconfirmed_communities),
-                 set_aside_communities,
-                 false_pairs,
-                 view_graph,
-                 model_paths,
-                 &models,
-                 &refinement_seconds);
-
-  std::stable_sort(merged_models.begin(),
-                   merged_models.end(),
-                   [](const std::shared_ptr<Reconstruction>& a,
-                      const std::shared_ptr<Reconstruction>& b) {
-                     return a->NumRegImages() > b->NumRegImages();
-                   });
-  for (const auto& model : merged_models) {
+  for (const auto& model : result.models) {
     summary_.model_num_registered.push_back(
         static_cast<int>(model->NumRegImages()));
     reconstruction_manager_->Get(reconstruction_manager_->Add()) = model;
   }
-  if (!merged_models.empty()) {
-    try {
-      WriteTextFileAtomically(
-          CommunityCamerasToPly(*merged_models[0], summary_.community_of_image),
-          workspace_.CommunitiesPlyPath());
-    } catch (const std::exception& error) {
-      LOG(WARNING) << "Could not write " << workspace_.CommunitiesPlyPath()
-                   << ": " << error.what();
-    }
-  }
-  // The merge (joining the models, merging their points, loading the
-  // correspondences, colours) and the final bundle adjustment (with the
-  // registration of left-over images, track completion and filtering) are
-  // reported apart.
-  const double merge_total = phase_timer.ElapsedSeconds();
-  summary_.phase_seconds.emplace_back("Merge",
-                                      merge_total - refinement_seconds);
-  summary_.phase_seconds.emplace_back("Final bundle adjustment",
-                                      refinement_seconds);
-  LOG(INFO) << StringPrintf("Merge: %.3fs, final bundle adjustment: %.3fs (%s)",
-                            merge_total - refinement_seconds,
-                            refinement_seconds,
-                            ProcessMemoryToString(ReadProcessMemory()).c_str());
-  summary_.peak_memory_mb = ReadProcessMemory().peak_resident_mb;
-  if (merged_models.empty()) {
-    LOG(ERROR) << "No community could be reconstructed: no model written.";
-    return false;
+  try {
+    WriteTextFileAtomically(
+        CommunityCamerasToPly(*result.models[0], summary_.community_of_image),
+        workspace_.CommunitiesPlyPath());
+  } catch (const std::exception& error) {
+    LOG(WARNING) << "Could not write " << workspace_.CommunitiesPlyPath()
+                 << ": " << error.what();
   }
   return true;
 }
 
-std::string CommunityMapperController::SummaryToText(const Summary& summary) {
-  auto join = [](const auto& values) {
-    std::string text;
-    for (const auto& value : values) {
-      text += " " + std::to_string(value);
-    }
-    return text;
-  };
-  std::string text =
-      "# Figures of a community_mapper run (key value; seconds, MB)\n";
-  text +=
-      StringPrintf("num_view_graph_images %d\n", summary.num_view_graph_images);
-  text += StringPrintf("max_modularity %.4f\n", summary.max_modularity);
-  text += StringPrintf("num_communities %d\n",
-                       static_cast<int>(summary.community_sizes.size()));
-  text += "community_sizes" + join(summary.community_sizes) + "\n";
-  text +=
-      "extra_community_origins" + join(summary.extra_community_origins) + "\n";
-  text += "reconstructed_communities" +
-          join(summary.reconstructed_communities) + "\n";
-  text += "reused_communities" + join(summary.reused_communities) + "\n";
-  int num_excluded = 0;
-  for (const bool excluded : summary.community_excluded) {
-    num_excluded += excluded ? 1 : 0;
-  }
-  text += StringPrintf("num_excluded_communities %d\n", num_excluded);
-  text += StringPrintf("num_community_pairs %d\n", summary.num_community_pairs);
-  text += StringPrintf("num_estimated_similarities %d\n",
-                       summary.num_estimated_similarities);
-  text +=
-      StringPrintf("num_kept_similarities %d\n", summary.num_kept_similarities);
-  text += "model_num_registered" + join(summary.model_num_registered) + "\n";
-  for (const auto& phase : summary.phase_seconds) {
-    std::string name = StringReplace(phase.first, " ", "_");
-    std::transform(name.begin(), name.end(), name.begin(), ::tolower);
-    text += StringPrintf("phase_seconds %s %.3f\n", name.c_str(), phase.second);
-  }
-  text += StringPrintf("peak_memory_mb %.1f\n", summary.peak_memory_mb);
-  return text;
-}
 
 void CommunityMapperController::Run() { RunAllStages(); }
 
@@ -1440,10 +524,6 @@ bool CommunityMapperController::RunAllStages() {
     return false;
   }
   end_phase("Partition");
-  if (options_.partition_only) {
-    run_timer.PrintMinutes();
-    return true;
-  }
 
   //////////////////////////////////////////////////////////////////////////////
   // 2. Community reconstruction
@@ -1508,11 +588,11 @@ bool CommunityMapperController::RunAllStages() {
   }
 
   //////////////////////////////////////////////////////////////////////////////
-  // 3-4. Similarity averaging, merge and final bundle adjustment
+  // 3-4. Similarities, their averaging, the merge and its refinement
   //////////////////////////////////////////////////////////////////////////////
 
   const bool merged = Merge();
-  LogSummary(summary_);
+  LogCommunityMapperSummary(summary_);
   run_timer.PrintMinutes();
   return merged;
 }

@@ -34,12 +34,8 @@
 #include "colmap_ext/graph/community_detection.h"
 #include "colmap_ext/graph/view_graph.h"
 #include "colmap_ext/scene/community_workspace.h"
-#include "colmap_ext/sfm/community_judgement.h"
-#include "colmap_ext/sfm/community_merger.h"
-#include "colmap_ext/sfm/covisibility_check.h"
-#include "colmap_ext/sfm/pairwise_similarity.h"
-#include "colmap_ext/sfm/pose_graph_alignment.h"
-#include "colmap_ext/sfm/similarity_averaging.h"
+#include "colmap_ext/controllers/community_mapper_summary.h"
+#include "colmap_ext/sfm/community_merge.h"
 
 #include "colmap/controllers/incremental_mapper.h"
 #include "colmap/scene/reconstruction_manager.h"
@@ -82,27 +78,15 @@ class CommunityMapperController : public BaseController {
     // minimum community size (CSfM: N = 20), the balance rule.
     CommunityDetectionOptions community_detection;
 
-    // Minimum number of verified inlier matches for a view-graph edge;
-    // -1 takes the incremental mapper's min_num_matches.
-    int min_num_matches = -1;
-
     // Edge weights for community detection: every edge 1, as in the paper,
-    // or its verified inlier count. The balance rule splits the unit graph
-    // of an exhaustively matched database too (README: edge_weights).
+    // or its verified inlier count.
     ViewGraphEdgeWeight edge_weight = ViewGraphEdgeWeight::kUnit;
 
     // Number of images each community borrows from each neighbouring
     // community, so that neighbours share images and points for the
     // pairwise similarities (0: communities share nothing, as in the paper,
-    // and only the matches of cross edges link them). Measured on a
-    // generated scene of 1000 images in 6 communities: with 3, the pairwise
-    // similarities had 2-4x as many inliers (e.g. 216 of 259 correspondences
-    // instead of 39 of 79), and one more neighbour pair was usable (628
-    // inliers instead of 3), for the same time and accuracy.
+    // and only the matches of cross edges link them).
     int image_overlap = 3;
-
-    // Stop after the partition (communities.txt), before reconstructing.
-    bool partition_only = false;
 
     // Number of communities reconstructed at the same time; -1: as many as
     // there are CPU cores (at most the number of communities). The threads
@@ -111,134 +95,46 @@ class CommunityMapperController : public BaseController {
 
     // Relative function tolerance of the global bundle adjustments inside
     // each community's incremental mapper; -1 takes
-    // incremental_options.ba_global_function_tolerance (COLMAP's default 0
-    // runs every global adjustment to its iteration limit). The merged model
-    // is bundle adjusted as a whole at the end, so the communities need not
-    // polish the last digits: on a generated scene of 1000 images, 1e-6
-    // made the communities' reconstruction 17% faster.
+    // incremental_options.ba_global_function_tolerance (COLMAP's 0 runs
+    // every global adjustment to its iteration limit). The merged model is
+    // adjusted as a whole at the end, so the communities need not polish
+    // the last digits.
     double community_ba_function_tolerance = 1e-6;
 
     // Growth of a community's model (in registered images or in points)
     // after which its incremental mapper runs the next global bundle
     // adjustment; -1 takes incremental_options.ba_global_images_ratio and
     // ba_global_points_ratio (COLMAP's 1.1). Local bundle adjustment still
-    // follows every registration, and the merged model is adjusted as a
-    // whole at the end. Measured with 1.4 instead of 1.1, on a generated
-    // scene of 1000 images in 6 communities: communities 24% faster, same
-    // accuracy; on one of 530 images with a camera per image and no loop:
-    // 17% faster, same accuracy, 529 instead of 530 images registered.
+    // follows every registration.
     double community_ba_global_ratio = 1.4;
 
-    // A community most of whose images have a camera of their own (as
-    // photos from many devices, or per-image intrinsics) runs the incremental
-    // mapper's own global adjustments (incremental_options'
-    // ba_global_function_tolerance and ratios) instead of the two cheaper
-    // settings above: its intrinsics are estimated image by image, and a
-    // short walkway piece of such images, reconstructed alone, comes out
-    // bent where fewer and shorter global adjustments leave it. Measured on
-    // generated open chains of 500 images with a camera per image (seeds 3,
-    // 5, 6): median camera error 0.225 / 0.643 / 0.685 with the cheaper
-    // settings, 0.178 / 0.249 / 0.520 with the mapper's (colmap mapper:
-    // 0.130 / 0.286 / 0.497); each of the two settings alone changed little
-    // (0.616, 0.636 on seed 5). The whole run took as long (107.6 s against
-    // 107-117 s on seed 3): the communities took 87 s instead of 59-68 s, the
-    // refinement less from their better start.
+    // A community most of whose images have a camera of their own (photos
+    // from many devices, per-image intrinsics) runs the incremental mapper's
+    // own global adjustments instead of the two cheaper settings above: its
+    // intrinsics are estimated image by image, and fewer, shorter global
+    // adjustments leave a short walkway piece of such images bent.
     bool mapper_schedule_for_own_cameras = true;
 
     // Whether a community gets the mapper's own schedule: where
     // mapper_schedule_for_own_cameras applies to it (its images have a
     // camera of their own in this fraction), or where it is the plan's only
-    // community. A single community is not merged, so no adjustment of the
-    // whole follows the cheaper schedule: its model is the result, and
-    // would be a little less accurate than colmap mapper's (castle-P30,
-    // stop 30: median camera error 0.1551 against 0.1544 m in 0.82 of the
-    // time).
+    // community, whose model is the result (no adjustment of the whole
+    // follows).
     bool UsesMapperSchedule(double own_camera_fraction,
                             bool only_community = false) const;
 
-    // Where a community's mapper made several models, each other model
-    // that holds at least incremental_options.min_model_size of the
-    // community's own images (that no larger model of it holds) takes part
-    // in the merge as an extra community; false: only the largest does, and
-    // the refinement registers the others' images one by one (each with a
-    // local bundle adjustment). Merge-stage option: the community stage
-    // writes the other models either way.
-    bool merge_other_models = true;
-
-    // Pairwise similarity estimation between connected communities.
-    PairwiseSimilarityOptions pairwise_similarity;
-
-    // The check that an alignment explains which images were matched.
-    CovisibilityCheckOptions covisibility_check;
-
-    // A similarity that the co-visibility check rejected, between two
-    // communities that the averaging joins through other links, was right
-    // where it lies within the averaging's residual bounds of that placement
-    // (ResidualsAgainstMerge in community_alignment.h): its cross pairs stay
-    // in the refinement instead of being left out as false pairs, and close
-    // the loop there. False: every rejected similarity's pairs are left out.
-    bool confirm_rejected_links = true;
-
-    // The rotation and translation bounds that confirm a rejected
-    // similarity grow with the drift the links between its communities may
-    // have accumulated: times the square root of the number of links on the
-    // path (their effective resistance), at most this factor (1: the
-    // averaging's bounds alone). Two identical facades matched onto each
-    // other lie several spreads apart; a facade of repeated windows matched
-    // one period off, a fraction of a spread (see community_alignment.h).
-    double rejected_link_max_drift_factor = 1.5;
-
-    // Where a community that the averaging left in a part apart has two
-    // rejected similarities to two different communities of another part,
-    // resting on different points of it, the averaging is run again with
-    // them (JoinPartsByRejectedLinks in community_alignment.h): if it
-    // keeps both, and every link it kept before, without sending any
-    // community out of the merge, the two parts are one (the similarities'
-    // pairs stay in the refinement); otherwise the first averaging stands.
-    // Only similarities that the check refused by wide views alone count
-    // (no close view predicted across, CovisibilityCheckOptions::
-    // close_ray_angle_deg). Off by default: an identical building whose
-    // photographs fell into two communities, photographed from other places
-    // than its twin, can still place a community alike twice
-    // (community_alignment.h), and a wrong merge is worse than two models.
-    // On South Building resized to 384 px it joins a community cut off by
-    // the check (one model of 128 images instead of 100 + 28); on every
-    // other database measured it changes nothing (stop 44).
-    bool join_parts_by_rejected_links = false;
-
-    // What makes a community's own model doubtful.
-    CommunityJudgementOptions judgement;
-
-    // Global similarity averaging and edge rejection.
-    SimilarityAveragingOptions similarity_averaging;
-
-    // Before the refinement, a scale-drift-aware pose graph over the
-    // communities' cameras spreads each community's disagreement with its
-    // neighbours over its edges (pose_graph_alignment.h). Off by default:
-    // its ties are the copies of the images that neighbours borrow, placed
-    // at the edge of the borrowing community, and where they pull against
-    // the similarities from thousands of shared points they bend the
-    // communities rather than straighten them. Merge stage reruns on the
-    // benchmark's communities, median / 90th-percentile camera error after
-    // the refinement, off / on: 2940-image open chain of landmarks 0.162 /
-    // 0.352 and 0.181 / 0.427; 500-image open chain with a camera per image
-    // 0.226 / 0.719 and 0.250 / 0.666; courtyard loop 0.0147 / 0.0277 and
-    // 0.0152 / 0.0282; South Building 0.0116 / 0.0485 and 0.0119 / 0.0481;
-    // medium loop and dense scene the same either way. Before the
-    // refinement, the 9990-image open chain's cameras were 2.97 / 5.17 off
-    // as joined and 3.86 / 8.00 after the pose graph.
-    bool align_pose_graph = false;
-    PoseGraphAlignmentOptions pose_graph;
-
-    // Refinement of the merged model.
-    MergedModelRefinementOptions refinement;
+    // The merge stage (community_merge.h). Its database_path, image_path,
+    // image_names, min_num_matches and incremental_options are this
+    // struct's (MergeOptions()).
+    CommunityMergeOptions merge;
 
     // Options of the incremental mapper (per community, and for the
-    // registration, triangulation and bundle adjustment of the merge).
+    // registration, triangulation and bundle adjustment of the merge). Its
+    // min_num_matches is the view graph's too.
     IncrementalMapperOptions incremental_options;
 
-    // The minimum number of matches in effect.
-    int MinNumMatches() const;
+    // The merge stage's options, with this struct's inputs in effect.
+    CommunityMergeOptions MergeOptions() const;
 
     // The incremental mapper's options for one community's images:
     // incremental_options with the community_* settings above in effect
@@ -254,50 +150,11 @@ class CommunityMapperController : public BaseController {
     bool Check() const;
   };
 
-  // What happened, for the log's final summary and for tests.
-  struct Summary {
-    int num_view_graph_images = 0;
-    int num_view_graph_edges = 0;
-    int num_view_graph_components = 0;
-    double max_modularity = 0.0;
-    // Per community of the plan: its own images.
-    std::vector<int> community_sizes;
-    // Per community of the merge (the plan's, then the extra communities:
-    // other models of a community's mapper, see Merge()): what its mapper
-    // produced, the verdict on its model, and whether it left the merge
-    // (its images were then offered to the merged model, and those it did
-    // not register kept the community's model unless it was broken).
-    std::vector<CommunityModelReport> community_reports;
-    std::vector<CommunityJudgement> community_judgements;
-    std::vector<bool> community_excluded;
-    // The plan's community each extra community comes from.
-    std::vector<int> extra_community_origins;
-    // Pairs of communities joined by view-graph edges, with a pairwise
-    // similarity, and kept by the averaging.
-    int num_community_pairs = 0;
-    int num_estimated_similarities = 0;
-    int num_kept_similarities = 0;
-    // Communities reconstructed by this run, and those reused from an
-    // earlier run of the same plan.
-    std::vector<int> reconstructed_communities;
-    std::vector<int> reused_communities;
-    // Final models (largest first): registered images of each.
-    std::vector<int> model_num_registered;
-    // Community of the plan of every image of the view graph (an extra
-    // community's images are its origin's: communities.ply colours them so).
-    std::unordered_map<image_t, int> community_of_image;
-    // Phase name and seconds.
-    std::vector<std::pair<std::string, double>> phase_seconds;
-    // Peak resident memory of the process (MB).
-    double peak_memory_mb = 0.0;
-  };
-
-  // The summary as "key value" lines (OUT/summary.txt), for scripts such as
-  // the benchmark: phase_seconds NAME SECONDS (NAME in snake case),
-  // community_sizes (the plan's), extra_community_origins,
-  // num_excluded_communities (of the plan's and the extra ones),
-  // reused_communities, model_num_registered, peak_memory_mb, ...
-  static std::string SummaryToText(const Summary& summary);
+  // What happened (community_mapper_summary.h).
+  using Summary = CommunityMapperSummary;
+  static std::string SummaryToText(const Summary& summary) {
+    return CommunityMapperSummaryToText(summary);
+  }
 
   CommunityMapperController(
       const Options& options,

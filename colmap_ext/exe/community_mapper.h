@@ -16,11 +16,12 @@
 // OUT's layout is community_workspace.h's. Bad input is refused with a
 // message naming the problem before anything is written; results of an
 // earlier run that the command would not resume are only replaced with
-// --CommunityMapper.overwrite 1.
+// --CommunityMapper.overwrite 1; one run at a time writes an OUT
+// (output_lock.h).
 
 #pragma once
 
-#include "colmap_ext/controllers/community_mapper.h"
+#include "colmap_ext/exe/community_mapper_options.h"
 
 #include <string>
 
@@ -35,18 +36,14 @@ enum class CommunityMapperStage {
 
 struct CommunityMapperCommand {
   CommunityMapperStage stage = CommunityMapperStage::kAll;
-  // The controller's options; those given as text on the command line
-  // (edge_weights) are checked and converted by RunCommunityMapperImpl.
-  CommunityMapperController::Options options;
-  // --CommunityMapper.edge_weights: "unit" or "num_inliers".
-  std::string edge_weights = "unit";
+  // The options (community_mapper_options.h); their values are checked by
+  // RunCommunityMapperImpl.
+  CommunityMapperCommandOptions options;
   // --image_list_path: a text file of the image names to reconstruct, one
   // per line, as colmap mapper's (empty: every image of the database).
   std::string image_list_path;
   // The community of kCommunity.
   int community_id = -1;
-  // Replace the results of an earlier run (of kCommunity: that community's).
-  bool overwrite = false;
   // Written to OUT/project.ini by the partition and the merge (if not empty).
   std::string project_ini;
 };

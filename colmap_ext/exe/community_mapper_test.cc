@@ -23,17 +23,17 @@ class RunCommunityMapperImplTest : public ::testing::Test {
     scene_options.num_points_per_cluster = 400;
     scene_options.num_points_per_link = 150;
     scene_options.close_loop = false;
-    command_.options.database_path = JoinPaths(test_dir, "database.db");
+    command_.options.mapper.database_path = JoinPaths(test_dir, "database.db");
     {
-      Database database(command_.options.database_path);
+      Database database(command_.options.mapper.database_path);
       SyntheticScene scene;
       SynthesizeCommunityScene(scene_options, &scene, &database);
     }
-    command_.options.output_path = JoinPaths(test_dir, "out");
-    command_.options.plan_options =
+    command_.options.mapper.output_path = JoinPaths(test_dir, "out");
+    command_.options.mapper.plan_options =
         "CommunityMapper.modularity_threshold=0.3\n";
-    command_.options.community_detection.min_community_size = 5;
-    command_.project_ini = "output_path=" + command_.options.output_path + "\n";
+    command_.options.mapper.community_detection.min_community_size = 5;
+    command_.project_ini = "output_path=" + command_.options.mapper.output_path + "\n";
   }
 
   CommunityMapperCommand Stage(const CommunityMapperStage stage) const {
@@ -46,7 +46,7 @@ class RunCommunityMapperImplTest : public ::testing::Test {
 };
 
 TEST_F(RunCommunityMapperImplTest, PartitionWritesThePlanAndIsIdempotent) {
-  const CommunityWorkspace workspace(command_.options.output_path);
+  const CommunityWorkspace workspace(command_.options.mapper.output_path);
   ASSERT_TRUE(RunCommunityMapperImpl(Stage(CommunityMapperStage::kPartition)));
   ASSERT_TRUE(ExistsFile(workspace.PlanPath()));
   EXPECT_TRUE(ExistsFile(workspace.CommunitiesPath()));
@@ -58,18 +58,18 @@ TEST_F(RunCommunityMapperImplTest, PartitionWritesThePlanAndIsIdempotent) {
   EXPECT_EQ(ReadTextFile(workspace.PlanPath()), plan);
   // With other options: refused, the plan kept.
   CommunityMapperCommand other = Stage(CommunityMapperStage::kPartition);
-  other.options.plan_options = "CommunityMapper.modularity_threshold=0.4\n";
+  other.options.mapper.plan_options = "CommunityMapper.modularity_threshold=0.4\n";
   EXPECT_FALSE(RunCommunityMapperImpl(other));
   EXPECT_EQ(ReadTextFile(workspace.PlanPath()), plan);
   // Unless overwrite: a new plan.
-  other.overwrite = true;
+  other.options.overwrite = true;
   EXPECT_TRUE(RunCommunityMapperImpl(other));
   EXPECT_NE(ReadTextFile(workspace.PlanPath()).find("threshold=0.4"),
             std::string::npos);
 }
 
 TEST_F(RunCommunityMapperImplTest, LaterStagesNeedAPlanAndItsCommunities) {
-  const CommunityWorkspace workspace(command_.options.output_path);
+  const CommunityWorkspace workspace(command_.options.mapper.output_path);
   EXPECT_FALSE(RunCommunityMapperImpl(Stage(CommunityMapperStage::kMerge)));
   EXPECT_FALSE(ExistsDir(workspace.OutputPath()));
   ASSERT_TRUE(RunCommunityMapperImpl(Stage(CommunityMapperStage::kPartition)));
@@ -91,15 +91,15 @@ TEST_F(RunCommunityMapperImplTest, LaterStagesNeedAPlanAndItsCommunities) {
 
 TEST_F(RunCommunityMapperImplTest, BadOptionsWriteNothing) {
   CommunityMapperCommand command = Stage(CommunityMapperStage::kAll);
-  command.edge_weights = "inliers";
+  command.options.edge_weights = "inliers";
   EXPECT_FALSE(RunCommunityMapperImpl(command));
   command = Stage(CommunityMapperStage::kAll);
-  command.options.community_detection.modularity_threshold = 1.5;
+  command.options.mapper.community_detection.modularity_threshold = 1.5;
   EXPECT_FALSE(RunCommunityMapperImpl(command));
   command = Stage(CommunityMapperStage::kAll);
-  command.options.database_path += ".missing";
+  command.options.mapper.database_path += ".missing";
   EXPECT_FALSE(RunCommunityMapperImpl(command));
-  EXPECT_FALSE(ExistsDir(command_.options.output_path));
+  EXPECT_FALSE(ExistsDir(command_.options.mapper.output_path));
 }
 
 }  // namespace

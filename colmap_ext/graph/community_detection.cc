@@ -1,4 +1,5 @@
 #include "colmap_ext/graph/community_detection.h"
+#include "colmap_ext/util/option_check.h"
 
 #include "colmap/util/logging.h"
 #include "colmap/util/misc.h"
@@ -290,17 +291,31 @@ GraphPartitioner::Result GreedyModularityPartitioner::Partition(
 }
 
 bool CommunityDetectionOptions::Check() const {
-  CHECK_OPTION_GE(modularity_threshold, 0.0);
-  CHECK_OPTION_LT(modularity_threshold, 1.0);
-  CHECK_OPTION_GE(min_community_size, 2);
+  bool valid = true;
+  valid &= CheckFlag(modularity_threshold >= 0 && modularity_threshold < 1,
+                     "modularity_threshold",
+                     modularity_threshold,
+                     "in [0, 1) (the CSfM paper uses 0.3)");
+  valid &= CheckFlag(min_community_size >= 2,
+                     "min_community_size",
+                     min_community_size,
+                     "at least 2 (the CSfM paper uses 20)");
+  valid &= CheckFlag(
+      max_community_fraction > 0 && max_community_fraction <= 1,
+      "max_community_fraction",
+      max_community_fraction,
+      "in (0, 1] (1: split by the threshold only)");
+  valid &= CheckFlag(max_part_conductance > 0 && max_part_conductance <= 1,
+                     "partition_max_part_conductance",
+                     max_part_conductance,
+                     "in (0, 1] (1: split by the threshold only)");
+  valid &= CheckFlag(
+      max_joined_part_fraction >= 0 && max_joined_part_fraction < 1,
+      "partition_max_joined_part_fraction",
+      max_joined_part_fraction,
+      "in [0, 1)");
   CHECK_OPTION_GE(max_recursion_depth, 0);
-  CHECK_OPTION_GT(max_community_fraction, 0.0);
-  CHECK_OPTION_LE(max_community_fraction, 1.0);
-  CHECK_OPTION_GT(max_part_conductance, 0.0);
-  CHECK_OPTION_LE(max_part_conductance, 1.0);
-  CHECK_OPTION_GE(max_joined_part_fraction, 0.0);
-  CHECK_OPTION_LT(max_joined_part_fraction, 1.0);
-  return true;
+  return valid;
 }
 
 int CommunityPartition::NumCommunities() const {

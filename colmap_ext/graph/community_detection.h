@@ -80,44 +80,38 @@ struct CommunityDetectionOptions {
   // A (sub)graph holding more than this fraction of its connected component
   // is split at its modularity peak even where the peak is below the
   // threshold or a part of it is no community (max_part_conductance), if
-  // at least two of the parts reach min_community_size. The
-  // communities are reconstructed in parallel and the largest sets the
-  // pace: on the CSfM paper's South Building (128 images, Qmax 0.30) the
-  // threshold alone left communities of 89 and 39 images. A graph without
+  // at least two of the parts reach min_community_size. The communities
+  // are reconstructed in parallel and the largest sets the pace, and the
+  // threshold alone can leave most of a scene in one community (after
+  // exhaustive matching nearly every pair is verified). A graph without
   // community structure is cut where its edges are densest, which gives
   // the merge strong links. The parts of such a split (and their parts)
-  // are not split by this rule again: on South Building (Qmax 0.298) the
-  // first cut left 67 of 128 images in one part, whose own peak of 0.16
-  // says it has no structure; cutting it anyway gave a 53-image community
-  // that broke into two models. 1: split by the threshold only, as the
-  // paper.
+  // are not split by this rule again: a part whose own peak said it had no
+  // structure, cut anyway, gave a community that its mapper broke into two
+  // models (docs/design.md). 1: split by the threshold only, as the paper.
   double max_community_fraction = 0.5;
 
   // A split by the threshold is refused where one of its parts (counted
   // with the parts under min_community_size that would join it) has a
   // conductance above this within the split graph, i.e. more than this
-  // share of the weight of its edges' endpoints leads to its siblings. On
-  // generated open chains of landmark clusters (six draws) the threshold
-  // alone cut clusters in two at Qmax 0.30-0.38 (parts with 0.34-0.58 of
-  // their edges to a sibling) and left short walkway pieces standing alone;
-  // refusing those splits brought the merged model's median camera error
-  // from 1.32x the incremental mapper's to 1.14x (geometric mean), for the
-  // same total time. Joining only the offending part into its sibling kept
-  // the walkway pieces: 1.25x, and one of them broke. The splits the
-  // threshold made on South Building (parts of at most 0.20), on the
-  // medium loop and the dense scene stand, as do three of the courtyard
-  // loop's four. 1: the threshold alone, as the paper.
+  // share of the weight of its edges' endpoints leads to its siblings. A
+  // chain of overlapping views reaches the threshold without community
+  // structure: on generated open chains of landmark clusters the threshold
+  // alone cut clusters in two and left short walkway pieces standing alone,
+  // and refusing those splits brought the merged model closer to the truth
+  // in the same time, while the clear splits of the other scenes stand
+  // (docs/design.md). 1: the threshold alone, as the paper.
   double max_part_conductance = 0.3;
 
   // A part above max_part_conductance that holds at most this fraction of
   // the split graph does not refuse the split: it joins the sibling it has
   // the most edge weight to (the worst first, until every part is within
   // the bound). A short piece of walkway between two landmarks is no
-  // community of its own, but the landmarks are: on a generated loop of 30
-  // landmarks (10,050 images) a 23-image piece (0.305) would have kept two
-  // landmarks of 349 and 340 images in one community. The cluster halves
-  // and walkway pieces of the open chains above held 20-30% of their
-  // split graphs. 0: every such part refuses the split.
+  // community of its own, but the landmarks are: refusing the split for it
+  // would keep two landmarks in one community. The default stays below the
+  // share that the cluster halves and walkway pieces of generated open
+  // chains hold of their split graphs, which must refuse the split
+  // (docs/design.md). 0: every such part refuses the split.
   double max_joined_part_fraction = 0.1;
 
   // Bound on the recursion depth, a guard against pathological inputs.

@@ -475,7 +475,7 @@ TEST(DetectCommunities, SplitWhosePartsAreNotCommunitiesIsRefused) {
   EXPECT_TRUE(balanced.splits[0].balance);
   options.max_community_fraction = 1;
 
-  // Clear communities are split as before: two cliques joined by one edge.
+  // Clear communities are still split: two cliques joined by one edge.
   WeightedGraph two_cliques;
   AddClique(/*first=*/0, /*size=*/25, /*weight=*/1, &two_cliques);
   AddClique(/*first=*/25, /*size=*/25, /*weight=*/1, &two_cliques);

@@ -412,7 +412,7 @@ CommunityRecord CommunityRecordFromText(const std::string& text) {
   record.num_registered = IntValue(values, "num_registered");
   record.num_points = IntValue(values, "num_points");
   record.num_models = IntValue(values, "num_models");
-  // Records written before the other models were kept have none.
+  // The line is optional: a record without it has no other model.
   record.num_other_models = values.count("num_other_models") > 0
                                 ? IntValue(values, "num_other_models")
                                 : 0;

@@ -128,7 +128,7 @@ TEST(CommunityRecord, TextRoundTrip) {
   EXPECT_NEAR(read.seconds, 12.5, 1e-3);
   EXPECT_EQ(read.database_fingerprint, record.database_fingerprint);
   EXPECT_THROW(CommunityRecordFromText("community 3\n"), std::invalid_argument);
-  // A record from before the other models were kept has none.
+  // A record without the line has no other model.
   std::string old_text = CommunityRecordToText(record);
   old_text.erase(old_text.find("num_other_models"),
                  std::string("num_other_models 1\n").size());

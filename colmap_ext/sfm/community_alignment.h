@@ -15,8 +15,7 @@
 // merged model's refinement must not re-introduce them as tracks. The
 // rejected transforms are reported too, each with its pairs, so that the
 // merge can confirm one that a cycle of other links places alike
-// (ResidualsAgainstMerge, below), or join two parts by two of them that
-// agree (JoinPartsByRejectedLinks).
+// (ResidualsAgainstMerge, below).
 
 #pragma once
 
@@ -85,18 +84,16 @@ CommunitySimilarities EstimateCommunitySimilarities(
 // confirms. The check judges a link by the image pairs the matcher verified
 // across it, and real photographs fail it where the matcher verified few of
 // the pairs that see one structure from far apart along the way (the start
-// and the end of a walk around a building: on South Building at 512 px the
-// link that closes the walk, 386 of 424 correspondences and 6 shared images
-// placed alike, had 1 of 27 predicted pairs verified, against 80% inside).
-// Where the two communities are joined through other kept links (a cycle),
-// the averaging places them without that link. Measured against that
-// placement as the averaging measures its kept links (its residual bounds,
-// similarity_averaging.h), a right transform differs by the drift
-// accumulated along the links that join them; two identical facades matched
-// onto each other differ by the distance between them (several spreads),
-// a flipped facade by 180 degrees, and communities joined by nothing else
-// are in different parts. A confirmed transform's cross pairs are no false
-// pairs: they close the loop in the refinement.
+// and the end of a walk around a building, as on South Building:
+// docs/design.md). Where the two communities are joined through other kept
+// links (a cycle), the averaging places them without that link. Measured
+// against that placement as the averaging measures its kept links (its
+// residual bounds, similarity_averaging.h), a right transform differs by
+// the drift accumulated along the links that join them; two identical
+// facades matched onto each other differ by the distance between them
+// (several spreads), a flipped facade by 180 degrees, and communities
+// joined by nothing else are in different parts. A confirmed transform's
+// cross pairs are no false pairs: they close the loop in the refinement.
 //
 // Drift: each kept link places its communities within the bounds, and
 // independent errors along a path of k links add up to about sqrt(k) times
@@ -108,9 +105,7 @@ CommunitySimilarities EstimateCommunitySimilarities(
 // `max_drift_factor`; the scale bound (22%) is not. The factor is capped
 // low: a facade of repeated windows matched one period off lies a period
 // from the right place, a third of a spread where the matches span ten
-// periods. South Building's link at 512 px was 1.8 degrees, 2.7% in scale
-// and 0.199 spreads off across a path of 3 links (bounds 5 degrees and 0.2
-// spreads unscaled, 7.5 and 0.3 with the default factor 1.5).
+// periods.
 struct MergeResiduals {
   // Whether the averaging put both communities in one part (neither left
   // the merge); `report` and `path_resistance` are only set then.
@@ -135,52 +130,5 @@ MergeResiduals ResidualsAgainstMerge(
     const RejectedSimilarity& rejected,
     const std::vector<RelativeSimilarity>& similarities,
     const SimilarityAveragingResult& averaging);
-
-// Rejected transforms that may join two parts of the averaging (Options::
-// join_parts_by_rejected_links in community_mapper.h): where one community c
-// has rejected transforms to two different communities a and b of one other
-// part, each a bridge alone that nothing can confirm, the two together close
-// a cycle through the part, and averaging them with the kept links tells
-// whether c sits where both place it. Repeated structure places c alike
-// twice where both transforms rest on the same structure of c (its tower
-// matched onto one tower that a and b both see): the two must rest on
-// different points of c, at most `max_shared_support` of the smaller
-// support in common, and each must have been rejected by wide views alone:
-// no close view predicted across (CovisibilityCheckOptions::
-// close_ray_angle_deg; every wrong rejected transform measured predicted
-// hundreds). That still does not rule out a twin: a building matched onto
-// an identical one whose photographs fell into two communities, each
-// transform on another side of it, photographed from other places than
-// its twin (no close views) or small in the frame; the controller leaves
-// this rule off unless asked (Options::join_parts_by_rejected_links). Of
-// several rejected transforms of one community pair, only the one with the
-// most inliers counts (if close views were predicted under it, the pair
-// offers none), and none of a pair that has a similarity in `similarities`
-// (the check passed it). Returns indices into `rejected_similarities`, in
-// order. (South Building resized to 384 px: a community of 28 images
-// between two others had rejected links to both, 0 of 14 and 0 of 47
-// predicted pairs verified, none a close view, on 160 and 283 of its points
-// with none in common; averaged with the kept links, all four within 0.34
-// degrees and 0.16 spreads.)
-std::vector<int> FindRejectedLinksJoiningParts(
-    const std::vector<RelativeSimilarity>& similarities,
-    const std::vector<RejectedSimilarity>& rejected_similarities,
-    const SimilarityAveragingResult& averaging,
-    double max_shared_support = 0.5);
-
-// Averages `similarities` again with the rejected transforms that may join
-// two parts (FindRejectedLinksJoiningParts) and accepts the result if it
-// keeps all of them and every link `averaging` kept, sends no further
-// community out of the merge and has fewer parts. If accepted, returns
-// true: the joining transforms are appended to `similarities` (in the order
-// of `joined`, their indices into `rejected_similarities`), and `averaging`
-// holds the new result, indexed alike. Otherwise nothing changes.
-bool JoinPartsByRejectedLinks(
-    const std::vector<AveragedCommunity>& communities,
-    const std::vector<RejectedSimilarity>& rejected_similarities,
-    const SimilarityAveragingOptions& options,
-    std::vector<RelativeSimilarity>* similarities,
-    SimilarityAveragingResult* averaging,
-    std::vector<int>* joined);
 
 }  // namespace colmap

@@ -19,12 +19,9 @@
 //     `max_relative_reprojection_error` times the median of the
 //     communities' means. The same data fitted so much worse means wrong
 //     matches or a wrong geometry inside the model: it leaves the merge,
-//     and the merged model registers its images. Measured on a generated
-//     courtyard loop: a walkway community along a flat wall broke into
-//     three models, the largest with a mean error of 1.29 px against the
-//     others' 0.76 (camera errors of metres against millimetres); kept in
-//     the merge, it left the merged model's 90th-percentile camera error at
-//     10-40 m, left out 0.04 m.
+//     and the merged model registers its images. On a generated courtyard
+//     loop such a community, kept in the merge, left the merged model's
+//     cameras metres off instead of centimetres (docs/design.md).
 // A model that the mapper made beside a community's largest (an extra
 // community of the merge, community_mapper.h) is judged against the
 // communities' largest models, which alone set the medians: it is always

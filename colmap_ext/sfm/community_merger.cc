@@ -1,4 +1,5 @@
 #include "colmap_ext/sfm/community_merger.h"
+#include "colmap_ext/util/option_check.h"
 
 #include "colmap_ext/sfm/reprojection_noise.h"
 #include "colmap_ext/util/process_memory.h"
@@ -179,10 +180,9 @@ namespace {
 // `reconstruction`: the linear solver as COLMAP's BundleAdjuster chooses it
 // (dense Schur up to 50 images, sparse up to 1000, iterative Schur above),
 // or with `sparse_solver` Ceres' sparse Schur solver (SuiteSparse) at any
-// size; in either case the dense one up to 1000 images where the cameras
-// see each other's points densely (`dense_solver_min_density`). The solver
-// starts from the options' trust region radius and stops once an iteration
-// lowers the cost by less than their relative function tolerance.
+// size. The solver starts from the options' trust region radius and stops
+// once an iteration lowers the cost by less than their relative function
+// tolerance.
 ceres::Solver::Options RefinementSolverOptions(
     const BundleAdjustmentOptions& options,
     const MergedModelRefinementOptions& refinement,
@@ -201,12 +201,6 @@ ceres::Solver::Options RefinementSolverOptions(
   }
   if (refinement.sparse_solver && has_sparse) {
     solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
-  }
-  if (num_images > 50 && num_images <= 1000 &&
-      refinement.dense_solver_min_density <= 1 &&
-      CameraCovisibilityDensity(reconstruction) >=
-          refinement.dense_solver_min_density) {
-    solver_options.linear_solver_type = ceres::DENSE_SCHUR;
   }
   solver_options.num_threads =
       GetEffectiveNumThreads(solver_options.num_threads);
@@ -345,55 +339,25 @@ void AlignCameras(const MergedModelRefinementOptions& options,
 
 }  // namespace
 
-double CameraCovisibilityDensity(const Reconstruction& reconstruction) {
-  const std::vector<image_t>& image_ids = reconstruction.RegImageIds();
-  const size_t num_images = image_ids.size();
-  if (num_images < 2) {
-    return 1.0;
-  }
-  std::unordered_map<image_t, size_t> index;
-  for (size_t i = 0; i < num_images; ++i) {
-    index.emplace(image_ids[i], i);
-  }
-  // One bit per ordered pair of images (a million images take 125 MB: the
-  // callers ask for at most a thousand).
-  std::vector<bool> covisible(num_images * num_images, false);
-  size_t num_covisible_pairs = 0;
-  std::vector<size_t> track_images;
-  for (const auto& point3D : reconstruction.Points3D()) {
-    track_images.clear();
-    for (const TrackElement& track_el : point3D.second.track.Elements()) {
-      const auto it = index.find(track_el.image_id);
-      if (it != index.end()) {
-        track_images.push_back(it->second);
-      }
-    }
-    for (size_t a = 0; a < track_images.size(); ++a) {
-      for (size_t b = 0; b < track_images.size(); ++b) {
-        const size_t i = track_images[a];
-        const size_t j = track_images[b];
-        if (i < j && !covisible[i * num_images + j]) {
-          covisible[i * num_images + j] = true;
-          ++num_covisible_pairs;
-        }
-      }
-    }
-  }
-  return static_cast<double>(num_covisible_pairs) /
-         (num_images * (num_images - 1) / 2);
-}
-
 bool MergedModelRefinementOptions::Check() const {
   CHECK_OPTION_GT(alignment_max_points_per_image, 0);
   CHECK_OPTION_GE(triangulation_filter_factor, 0);
   CHECK_OPTION_GE(final_filter_noise_multiple, 0);
-  CHECK_OPTION(max_refinement_change == -1 || max_refinement_change >= 0);
+  if (!CheckFlag(max_refinement_change == -1 || max_refinement_change >= 0,
+                 "ba_max_refinement_change",
+                 max_refinement_change,
+                 "0 or more, or -1 for "
+                 "--Mapper.ba_global_max_refinement_change") ||
+      !CheckFlag(function_tolerance >= 0,
+                 "ba_function_tolerance",
+                 function_tolerance,
+                 "0 or more")) {
+    return false;
+  }
   CHECK_OPTION(track_selection.Check());
   CHECK_OPTION_GT(max_points_per_problem, 0);
   CHECK_OPTION_GE(max_selected_observation_fraction, 0);
   CHECK_OPTION_LE(max_selected_observation_fraction, 1);
-  CHECK_OPTION_GE(dense_solver_min_density, 0);
-  CHECK_OPTION_GE(function_tolerance, 0);
   CHECK_OPTION_GT(initial_trust_region_radius, 0);
   CHECK_OPTION(block_registration.Check());
   return true;
@@ -420,13 +384,6 @@ MergedModelRefinementSummary RefineMergedModel(
   const BundleAdjustmentOptions ba_options =
       mapper_options.GlobalBundleAdjustment();
   Timer timer;
-
-  if (reconstruction->NumRegImages() <= 1000) {
-    LOG(INFO) << StringPrintf(
-        "The joined model's images see a common point in %.1f%% of their "
-        "pairs",
-        100.0 * CameraCovisibilityDensity(*reconstruction));
-  }
 
   // 1. Alignment: the joined communities are each right, but where they
   // meet they are only as close as the averaged similarities put them. A
@@ -610,10 +567,9 @@ MergedModelRefinementSummary RefineMergedModel(
   // its angle to the ray (2 degrees by default: tens of pixels), where the
   // incremental mapper filters each image's new points by reprojection
   // error after its local adjustment; filtered before the first least
-  // squares adjustment, those observations cannot dominate it. On a
-  // generated loop of 1002 images its first round took 3 iterations (11 s)
-  // instead of 25 (66 s), on a dense scene of 560 the median / 90th
-  // percentile camera error went from 0.0040 / 0.0120 to 0.0036 / 0.0085.
+  // squares adjustment, those observations cannot dominate it: the first
+  // round converges in a few iterations instead of tens, and a dense
+  // scene's cameras end closer (docs/design.md).
   timer.Restart();
   for (const point3D_t point3D_id : reconstruction->Point3DIds()) {
     mapper->ObservationManager().DeletePoint3D(point3D_id);
@@ -659,10 +615,10 @@ MergedModelRefinementSummary RefineMergedModel(
   // others' poses as they are now. Likewise an image held by fewer
   // observations than the mapper needs to register one
   // (Mapper.abs_pose_min_num_inliers). A community's mapper registers an
-  // image by what that community sees: on South Building matched anew (stop
-  // 38) one placed an image of its own 6 units off (extent 11), by inliers
-  // no other community shared; in the merged model it kept 39 observations
-  // of its visible points, where the median image kept 2011.
+  // image by what that community sees: on one matching of South Building a
+  // community placed an image of its own 6 units off (extent 11), by
+  // inliers no other community shared; in the merged model it kept 39
+  // observations of its visible points, where the median image kept 2011.
   constexpr double kMinObservedVisibleFraction = 0.1;
   const auto deregister_misplaced_images = [&]() {
     ObservationManager& observations = mapper->ObservationManager();

@@ -15,42 +15,6 @@
 namespace colmap {
 namespace {
 
-TEST(CameraCovisibilityDensity, CountsThePairsOfImagesThatSeeACommonPoint) {
-  Reconstruction reconstruction;
-  reconstruction.AddCamera(
-      Camera::CreateFromModelName(1, "SIMPLE_PINHOLE", 100, 100, 100));
-  for (image_t image_id = 1; image_id <= 5; ++image_id) {
-    Image image;
-    image.SetImageId(image_id);
-    image.SetCameraId(1);
-    image.SetName(std::to_string(image_id));
-    image.SetPoints2D(std::vector<Eigen::Vector2d>(5, Eigen::Vector2d::Zero()));
-    reconstruction.AddImage(image);
-    if (image_id <= 4) {
-      reconstruction.RegisterImage(image_id);
-    }
-  }
-  EXPECT_EQ(CameraCovisibilityDensity(reconstruction), 0.0);
-  // Points seen by 1-2, by 2-3 (twice: the pair counts once) and by 1-2-5
-  // (5 is not registered): the pairs 1-2 and 2-3 of the six of images 1-4.
-  const auto add_point = [&](const std::vector<image_t>& image_ids,
-                             const point2D_t point2D_idx) {
-    Track track;
-    for (const image_t image_id : image_ids) {
-      track.AddElement(image_id, point2D_idx);
-    }
-    reconstruction.AddPoint3D(Eigen::Vector3d::Zero(), track);
-  };
-  add_point({1, 2}, 0);
-  add_point({2, 3}, 1);
-  add_point({3, 2}, 2);
-  add_point({1, 2, 5}, 3);
-  EXPECT_DOUBLE_EQ(CameraCovisibilityDensity(reconstruction), 2.0 / 6.0);
-  // A point seen by all four images: every pair.
-  add_point({4, 3, 2, 1}, 4);
-  EXPECT_DOUBLE_EQ(CameraCovisibilityDensity(reconstruction), 1.0);
-}
-
 class JoinReconstructionsTest : public ::testing::Test {
  protected:
   void SetUp() override {

@@ -12,7 +12,7 @@
 
 namespace colmap {
 
-CommunityReconstruction ReconstructCommunity(
+CommunityReconstruction ReconstructCommunityModels(
     std::shared_ptr<const IncrementalMapperOptions> options,
     const std::string& image_path,
     const std::string& database_path,

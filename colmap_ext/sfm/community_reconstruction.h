@@ -40,7 +40,7 @@ struct CommunityReconstruction {
 };
 
 // `options.image_names` holds the community's images.
-CommunityReconstruction ReconstructCommunity(
+CommunityReconstruction ReconstructCommunityModels(
     std::shared_ptr<const IncrementalMapperOptions> options,
     const std::string& image_path,
     const std::string& database_path,

@@ -47,7 +47,7 @@ class ReconstructCommunityTest : public ::testing::Test {
 TEST_F(ReconstructCommunityTest, ReconstructsOnlyTheCommunitysImages) {
   std::mutex database_mutex;
   const CommunityReconstruction result =
-      ReconstructCommunity(options_, "", database_path_, &database_mutex);
+      ReconstructCommunityModels(options_, "", database_path_, &database_mutex);
   ASSERT_TRUE(result.model);
   EXPECT_GE(result.num_models, 1);
   EXPECT_EQ(result.other_models.size() + 1, result.num_models);
@@ -64,13 +64,13 @@ TEST_F(ReconstructCommunityTest, ReconstructsOnlyTheCommunitysImages) {
 TEST_F(ReconstructCommunityTest, SameModelInAnyThread) {
   std::mutex database_mutex;
   const CommunityReconstruction first =
-      ReconstructCommunity(options_, "", database_path_, &database_mutex);
+      ReconstructCommunityModels(options_, "", database_path_, &database_mutex);
   CommunityReconstruction second;
   std::thread thread([&] {
     // Draw from this thread's random number generator first.
     RandomUniformInteger<int>(0, 100);
     second =
-        ReconstructCommunity(options_, "", database_path_, &database_mutex);
+        ReconstructCommunityModels(options_, "", database_path_, &database_mutex);
   });
   thread.join();
   ASSERT_TRUE(first.model && second.model);
@@ -100,7 +100,7 @@ TEST_F(ReconstructCommunityTest, OtherModelsAreKeptLargestFirst) {
   }
   std::mutex database_mutex;
   const CommunityReconstruction result =
-      ReconstructCommunity(options, "", database_path_, &database_mutex);
+      ReconstructCommunityModels(options, "", database_path_, &database_mutex);
   ASSERT_TRUE(result.model);
   EXPECT_EQ(result.num_models, 2);
   ASSERT_EQ(result.other_models.size(), 1);
@@ -116,7 +116,7 @@ TEST_F(ReconstructCommunityTest, NoImagesWithMatchesGivesNoModel) {
   options->image_names = {"no-such-image.jpg"};
   std::mutex database_mutex;
   const CommunityReconstruction result =
-      ReconstructCommunity(options, "", database_path_, &database_mutex);
+      ReconstructCommunityModels(options, "", database_path_, &database_mutex);
   EXPECT_FALSE(result.model);
   EXPECT_EQ(result.num_models, 0);
 }

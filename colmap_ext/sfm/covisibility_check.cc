@@ -1,4 +1,5 @@
 #include "colmap_ext/sfm/covisibility_check.h"
+#include "colmap_ext/util/option_check.h"
 
 #include "colmap/math/math.h"
 #include "colmap/util/logging.h"
@@ -234,7 +235,12 @@ bool CovisibilityCheckOptions::Check() const {
   CHECK_OPTION_LE(max_distance_quantile, 1);
   CHECK_OPTION_GT(max_num_points_per_image, 0);
   CHECK_OPTION_GT(max_num_internal_pairs, 0);
-  CHECK_OPTION_GE(min_rate_ratio, 0);
+  if (!CheckFlag(min_rate_ratio >= 0,
+                 "covisibility_min_rate_ratio",
+                 min_rate_ratio,
+                 "0 or more (0: no check)")) {
+    return false;
+  }
   CHECK_OPTION_GE(min_num_predicted_pairs, 1);
   CHECK_OPTION_GE(close_ray_angle_deg, 0);
   CHECK_OPTION_LE(close_ray_angle_deg, max_ray_angle_deg);

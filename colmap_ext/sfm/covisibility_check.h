@@ -23,22 +23,15 @@
 // so that the matcher's own habits (exhaustive, sequential, vocabulary tree)
 // cancel out: a true alignment predicts cross pairs that the matcher verified
 // about as often as it verified the predicted pairs inside the models, a
-// false one predicts many pairs it never verified. Measured: on the CSfM
-// paper's South Building (exhaustive matching) the true alignment of its two
-// communities had a cross rate of 77/209 against an internal rate of
-// 1462/1674 (ratio 0.42); generated landmarks with identical towers,
-// joined only by 40 pairs matched on the towers, had ratios of 0.003-0.02
-// for the alignments that stack one tower on the other. (Where every pair of
-// the duplicates was verified, the pairs alone cannot tell; that would need
-// the matches of each pair, point by point.) Only pairs whose camera
-// centres are closer than the longest verified pairs inside the models are
-// tested, so the cost follows the images near the border, and drift far
-// from it does not matter. The close views among the pairs (rays to their
-// common points at most 20 degrees apart on average), which the matcher
-// seldom misses, are counted apart: a rejection under which none was
-// predicted rests on wide views alone, the only kind that two rejected
-// links agreeing may overrule (FindRejectedLinksJoiningParts,
-// community_alignment.h).
+// false one predicts many pairs it never verified (the measured ratios are
+// in docs/design.md). (Where every pair of the duplicates was verified, the
+// pairs alone cannot tell; that would need the matches of each pair, point
+// by point.) Only pairs whose camera centres are closer than the longest
+// verified pairs inside the models are tested, so the cost follows the
+// images near the border, and drift far from it does not matter. The close
+// views among the pairs (rays to their common points at most
+// `close_ray_angle_deg` apart on average) are counted apart, for the log
+// only: no rule uses them.
 
 #pragma once
 
@@ -58,17 +51,11 @@ struct CovisibilityCheckOptions {
   // Largest angle between the two images' rays to a point for it to count:
   // beyond about 45 degrees of viewpoint change SIFT seldom matches
   // (Morel and Yu, "ASIFT", SIAM J. Imaging Sciences 2009), and an
-  // unmatched pair there says nothing about the alignment. At 60 degrees,
-  // South Building's random subset sb60_6 (stop 39) had a right link at a
-  // corner of the building (5 of 5 shared images placed alike) rejected:
-  // 11 pairs across predicted, none matched; its largest model held 38 of
-  // 75 images (colmap mapper: 52). At 45 degrees 2 of them were predicted
-  // (too few to judge): one model of all 75. The other nine subsets, South
-  // Building, and the generated courtyard, open chain and dense scene merged as
-  // at 60 (merge-stage reruns, the same models), and the identical towers are
-  // not stacked (tests; PairsSeenUnderWideAnglesSayNothing is the corner). The
-  // rate ratios below were measured at 60 degrees; at 45 South Building's wrong
-  // hypothesis between two of its communities had 0.032 (0.028 at 60).
+  // unmatched pair there says nothing about the alignment. At 60 degrees a
+  // right link at a corner of South Building was rejected on such pairs,
+  // none matched; at 45 the other scenes merge as at 60 and identical
+  // towers are still not stacked (docs/design.md;
+  // PairsSeenUnderWideAnglesSayNothing is the corner).
   double max_ray_angle_deg = 45.0;
 
   // Pairs are tested up to this quantile of the centre distances of the
@@ -82,14 +69,11 @@ struct CovisibilityCheckOptions {
   int max_num_internal_pairs = 2000;
 
   // The alignment is rejected when the cross rate is below this fraction of
-  // the internal rate (see the measurements above)... Wrong alignments of
-  // generated identical towers had ratios of 0.003-0.02; right ones that
-  // close South Building's walk had 0.064 (a quarter of the photographs
-  // left out: 1 of 18 cross pairs verified) and 0.090 (matched anew, stop
-  // 29: 4 of 51 against 630 of 725 inside), where the start and the end of
-  // the walk see the same facade but were seldom matched. Rejected at the
-  // earlier 0.1, that link left the loop open (90th-percentile camera error
-  // 0.073 against 0.048 with it).
+  // the internal rate... The default lies between the ratios of wrong
+  // alignments of generated identical towers and those of the right links
+  // that close South Building's walk, whose start and end see the same
+  // facade but were seldom matched: at 0.1 such a link was rejected and the
+  // loop stayed open (docs/design.md).
   double min_rate_ratio = 0.05;
 
   // ...and at least this many cross pairs were predicted (fewer say
@@ -97,18 +81,11 @@ struct CovisibilityCheckOptions {
   int min_num_predicted_pairs = 10;
 
   // Pairs whose rays to the points they would share are on average at most
-  // this many degrees apart are close views, counted apart. Inside the
-  // models the matcher verified 94-100% of the close views predicted to see
-  // each other (South Building at 384, 512 and 1024 px; generated identical
-  // towers), but on the photographs 72-96% of the pairs at 20-30 degrees
-  // and 58-84% of those at 30-45: wide views go unmatched for want of
-  // resolution, at a corner or in another light. Every wrong rejected
-  // similarity measured predicted hundreds of close views across, nearly all
-  // unmatched (identical towers stacked: 14 of 1214 verified; South Building's
-  // facade matched flipped onto itself: 18 of 286 at 1024 px, 22 of 265 at 512
-  // px); the right ones that the check rejected predicted none or one (South
-  // Building at 384 px: 0 of 14 and 0 of 47 pairs verified, all wide; the loop
-  // closure at 512 px: 1 of 27, one close view, verified).
+  // this many degrees apart are close views, counted apart for the log only
+  // (no rule uses them). The matcher verifies nearly every close view but
+  // misses many wide ones (for want of resolution, at a corner or in
+  // another light), so the counts show whether a rejection rests on wide
+  // views alone (docs/design.md).
   double close_ray_angle_deg = 20.0;
 
   bool Check() const;
@@ -121,7 +98,7 @@ struct CovisibilityCheck {
   int num_verified_internal_pairs = 0;
 
   // The same counts for the close views alone
-  // (CovisibilityCheckOptions::close_ray_angle_deg).
+  // (CovisibilityCheckOptions::close_ray_angle_deg), for the log.
   int num_predicted_close_cross_pairs = 0;
   int num_verified_close_cross_pairs = 0;
   int num_predicted_close_internal_pairs = 0;
@@ -141,13 +118,11 @@ struct CovisibilityCheck {
 // it never compared (sequential matching beyond its window, a vocabulary
 // tree's unretrieved pairs) tells nothing and is counted neither as
 // predicted nor as verified; without `is_compared_pair` every pair was
-// compared (exhaustive matching). Measured: South Building matched only
-// within 5 images of each other (a real open sequence, as
-// sequential_matcher without loop detection): the true alignment of two
-// communities had 0 of 24 predicted cross pairs verified, all 24 never
-// compared (the walk's ends see one facade), and was rejected, leaving the
-// sequence in two models where colmap mapper has one. Images registered in
-// both reconstructions are left out of the cross pairs.
+// compared (exhaustive matching). Without it, a true alignment of a real
+// open sequence (South Building matched only within 5 images of each
+// other) was rejected on pairs never compared, which left two models where
+// colmap mapper has one (docs/design.md). Images registered in both
+// reconstructions are left out of the cross pairs.
 CovisibilityCheck CheckCovisibility(
     const Reconstruction& reconstruction1,
     const Reconstruction& reconstruction2,

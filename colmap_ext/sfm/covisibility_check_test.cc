@@ -175,8 +175,8 @@ TEST_F(CheckCovisibilityTest, ModelsFarApartSayNothing) {
 // apart (as the two faces of a building's corner), each group a model of its
 // own, rightly aligned. The matcher verified every pair within a group and
 // none across: SIFT seldom matches across such a viewpoint change, so those
-// pairs say nothing about the alignment (South Building's subset sb60_6,
-// stop 39: a right link refused at 60 degrees).
+// pairs say nothing about the alignment (as at a corner of South
+// Building's subset sb60_6, where a right link was refused at 60 degrees).
 Reconstruction WallSeenFrom(const double tilt_deg,
                             const image_t first_image_id) {
   Reconstruction model;

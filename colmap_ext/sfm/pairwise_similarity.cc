@@ -1,4 +1,5 @@
 #include "colmap_ext/sfm/pairwise_similarity.h"
+#include "colmap_ext/util/option_check.h"
 
 #include "colmap/estimators/similarity_transform.h"
 #include "colmap/math/math.h"
@@ -71,10 +72,18 @@ PointCorrespondences FindPointCorrespondences(
 }
 
 bool PairwiseSimilarityOptions::Check() const {
-  CHECK_OPTION_GT(max_relative_error, 0);
+  if (!CheckFlag(max_relative_error > 0,
+                 "pairwise_max_relative_error",
+                 max_relative_error,
+                 "positive") ||
+      !CheckFlag(min_num_inliers >= 3,
+                 "pairwise_min_num_inliers",
+                 min_num_inliers,
+                 "at least 3")) {
+    return false;
+  }
   CHECK_OPTION_GE(min_inlier_ratio, 0);
   CHECK_OPTION_LE(min_inlier_ratio, 1);
-  CHECK_OPTION_GE(min_num_inliers, 3);
   CHECK_OPTION_GE(max_num_hypotheses, 1);
   CHECK_OPTION_GT(max_shared_image_rotation_deg, 0);
   CHECK_OPTION_GT(max_shared_image_relative_distance, 0);

@@ -82,9 +82,9 @@ struct PairwiseSimilarityOptions {
   // transform if the transform maps its pose in the first onto its pose in
   // the second within this rotation (degrees) and this distance, as a
   // fraction of the correspondences' spread in the second (see
-  // CheckSharedImages). Measured: right links placed their shared images
-  // within 3.2 deg and 0.42 spreads (an open chain's drifting ends), wrongly
-  // registered images were 17 deg or 2.1 spreads off or more.
+  // CheckSharedImages). The defaults lie between how far right links place
+  // their shared images (an open chain's drifting ends included) and how
+  // far wrongly registered images are off (docs/design.md).
   double max_shared_image_rotation_deg = 10.0;
   double max_shared_image_relative_distance = 1.0;
 

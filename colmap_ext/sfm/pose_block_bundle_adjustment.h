@@ -11,8 +11,8 @@
 // reduced camera matrix between two blocks it is observed by, and locks a
 // mutex per cell to do so. With two blocks per pose a track of n
 // observations touches about (2n)^2 / 2 cells instead of n^2 / 2: on a
-// dense scene (560 images, tracks of 33 observations) that elimination took
-// more than half of every solve. This adjuster solves the same problem (the
+// dense scene of long tracks that elimination took more than half of every
+// solve (docs/design.md). This adjuster solves the same problem (the
 // same cost functions, manifolds, gauge and constant parameters as the
 // BundleAdjuster sets them up from a BundleAdjustmentConfig) with each pose
 // one block of 7 (quaternion x, y, z, w, then translation; the quaternion's

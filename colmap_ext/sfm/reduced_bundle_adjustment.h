@@ -52,11 +52,9 @@ struct TrackSelectionOptions {
 
   // An image observing fewer selected tracks than this gets its next best
   // tracks added (as far as it observes any). The images that observe few
-  // of the long tracks are the weakly held ones: with 100 (Theia's
-  // recommendation), the merged model of a generated dense scene of 560
-  // images ended with a 90th-percentile camera error of 0.0153 against
-  // 0.0120 when every adjustment was over all observations; with 300,
-  // 0.0123 (median 0.0039 against 0.0040).
+  // of the long tracks are the weakly held ones: 100 (Theia's
+  // recommendation) left them noticeably further off than adjustments over
+  // all observations, 300 about as close (docs/design.md).
   int min_tracks_per_image = 300;
 
   bool Check() const;

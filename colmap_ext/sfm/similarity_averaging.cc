@@ -1,4 +1,5 @@
 #include "colmap_ext/sfm/similarity_averaging.h"
+#include "colmap_ext/util/option_check.h"
 
 #include "colmap_ext/sfm/pairwise_similarity.h"
 #include "colmap_ext/util/union_find.h"
@@ -376,9 +377,22 @@ bool SpreadCycleDrift(const std::vector<AveragedCommunity>& communities,
 
 bool SimilarityAveragingOptions::Check() const {
   CHECK_OPTION(rotation.Check());
-  CHECK_OPTION_GT(max_rotation_residual_deg, 0);
-  CHECK_OPTION_GT(max_log_scale_residual, 0);
-  CHECK_OPTION_GT(max_relative_translation_residual, 0);
+  bool valid = true;
+  valid &= CheckFlag(max_rotation_residual_deg > 0,
+                     "averaging_max_rotation_residual_deg",
+                     max_rotation_residual_deg,
+                     "positive");
+  valid &= CheckFlag(max_log_scale_residual > 0,
+                     "averaging_max_log_scale_residual",
+                     max_log_scale_residual,
+                     "positive");
+  valid &= CheckFlag(max_relative_translation_residual > 0,
+                     "averaging_max_relative_translation_residual",
+                     max_relative_translation_residual,
+                     "positive");
+  if (!valid) {
+    return false;
+  }
   CHECK_OPTION_GE(max_num_rejection_rounds, 0);
   CHECK_OPTION_GE(min_num_contradicting_shared_images, 0);
   CHECK_OPTION_GE(min_num_shared_images_on_bridge, 0);

@@ -47,35 +47,22 @@
 // by the two models under its similarity and at most one not. Between two
 // communities not in doubt, full support (many inliers) stands in for the
 // images placed alike, and fewer placed elsewhere than alike do not veto
-// it. On South Building, a community that broke into two models had registered
-// three of its neighbour's images 5 units off (extent 11); its only link to
-// that neighbour placed 3 of 6 shared images alike (85 deg, 9.9 spreads
-// apart) and merged the neighbour wrongly. With 40% of the photographs left
-// out, two sound communities were joined only by wrong matches (25
-// inliers, no shared image). Right links on South Building, generated loops
-// and open chains placed all their shared images alike but for single
-// borrowed images placed wrongly by one model. If the kept edges
-// no longer connect all communities, every connected part gets its own
-// frame, since a wrong merge is worse than two models.
+// it. Right links place all their shared images alike but for single
+// borrowed images placed wrongly by one model, while the wrong bridges
+// measured placed half of theirs elsewhere or had none (docs/design.md). If
+// the kept edges no longer connect all communities, every connected part
+// gets its own frame, since a wrong merge is worse than two models.
 //
 // Before any averaging, an edge that its shared images contradict (at
 // least two of them placed elsewhere, and no fewer than placed alike) is
 // left out: at least one of its two models misplaced those images, or the
 // similarity is wrong, and on a cycle such an edge can pull the averaging
-// its way. On South Building (matched anew, stop 29) a community that broke
-// into two models had registered three of its neighbour's images 5 units
-// off; their points gave its link to that neighbour 1026 inliers, a scale
-// 14% off the reference cameras', and 3 of 6 shared images 85 degrees off.
-// Averaged with the others, it won over the right links of a cycle and
-// rotated them 83-97 degrees off, which cut the merge into three parts.
-// Fewer placed elsewhere than alike, but at least two, put the edge in
-// doubt: it stays in the averaging with a tenth of its weight. On South
-// Building matched anew in stop 38, two communities had each registered one
-// image of the other's 6 units off (extent 11); their link placed 4 of 6
-// shared images alike (86 degrees apart), and with its full weight the
-// averaging of the cycle it closed kept it and dropped a right edge of the
-// smallest community (6 of 6 alike): one model of all 128 images, 5 units
-// off at the 90th percentile.
+// its way (with many inliers from the misplaced images it can win over the
+// right links of its cycle and cut the merge into parts). Fewer
+// placed elsewhere than alike, but at least two, put the edge in doubt: it
+// stays in the averaging with a tenth of its weight, so that a cycle
+// through it that does not close drops it rather than a right edge of a
+// small community (docs/design.md).
 
 #pragma once
 
@@ -167,12 +154,9 @@ struct SimilarityAveragingOptions {
   // accumulated around a loop of many communities leaves every link locally
   // right. Where some edges beyond the bounds are confirmed and others not,
   // the others are rejected first and the confirmed ones judged again in the
-  // next round, without them. On a generated loop of 30 landmark clusters
-  // (10,050 images, 32 communities) the loop's translation gap put 2.1 and
-  // 1.9 spreads on the two edges of its smallest community, which then left
-  // the merge: the loop stayed open in the joined model, and the merged
-  // model ended 3.0e-3 of the extent off at the median (1.0 degree), where
-  // a loop of 1002 images ends at 2.2e-4; with the gap spread, 8.8e-4.
+  // next round, without them. Without it, a long loop's gap falls on the
+  // edges of its smallest community, which leaves the merge, and the loop
+  // stays open (docs/design.md).
   bool spread_cycle_drift = true;
   int min_num_confirming_shared_images = 2;
 

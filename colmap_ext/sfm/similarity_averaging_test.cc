@@ -531,14 +531,14 @@ void ExpectAlignedWithoutEdge(const SimilarityAveragingResult& result,
   EXPECT_LT(errors.position, 1e-5);
 }
 
-// The averaging as it was before the shared images judged edges.
+// The averaging with no edge put in doubt or left out by its shared images.
 SimilarityAveragingResult AverageTrustingSharedImages(const Problem& problem) {
   SimilarityAveragingOptions trusting;
   trusting.min_num_contradicting_shared_images = 0;
   return AverageSimilarities(problem.Communities(), problem.edges, trusting);
 }
 
-// South Building matched anew (stop 38): a cycle of four communities whose
+// As on one matching of South Building: a cycle of four communities whose
 // wrong edge (between two communities that had each registered one image
 // of the other far off) placed 4 of its 6 shared images alike, and whose
 // lightest edges are the smallest community's, right and confirmed by all
@@ -622,7 +622,7 @@ TEST(AverageSimilarities, EdgeContradictedBySharedImagesIsLeftOut) {
   }
 }
 
-// South Building matched anew (stop 29): community 0, in doubt (its mapper
+// As on one matching of South Building: community 0, in doubt (its mapper
 // broke it into two models), had one right link confirmed by its 6 shared
 // images and two wrong ones, weakly supported, flipped by 176 and 179
 // degrees (a symmetric facade). Rejecting every edge beyond the bounds at
@@ -673,7 +673,7 @@ TEST(AverageSimilarities,
   EXPECT_EQ(result.part_of_community[0], result.part_of_community[1]);
   EXPECT_EQ(result.part_of_community[2], result.part_of_community[1]);
   // Community 3, small and in doubt, is left with one edge after its wrong
-  // one goes: it leaves, as before.
+  // one goes: it leaves all the same.
   EXPECT_TRUE(result.excluded[3]);
   const Sim3d gauge = Inverse(problem.world_from_community[0]);
   for (const int c : {1, 2}) {

@@ -12,7 +12,6 @@
 #include <unistd.h>
 
 namespace colmap {
-namespace {
 
 std::string HostName() {
   char name[256] = {};
@@ -22,13 +21,11 @@ std::string HostName() {
   return name;
 }
 
-// The writer's tag in its temporary names: host and process id, so that a
-// leftover of a process that no longer runs on this host can be told from
-// the output another process (on this host or another sharing the folder)
-// is writing.
 std::string WriterTag() {
   return HostName() + "-" + std::to_string(::getpid());
 }
+
+namespace {
 
 std::string TemporaryPath(const std::string& path) {
   return path + ".tmp-" + WriterTag();
@@ -38,7 +35,8 @@ std::string PreviousPath(const std::string& path) {
   return path + ".old-" + WriterTag();
 }
 
-// Whether `tag` (HOST-PID) names a process of this host that has ended.
+}  // namespace
+
 bool IsEndedWriterOfThisHost(const std::string& tag) {
   const size_t dash = tag.rfind('-');
   if (dash == std::string::npos || tag.substr(0, dash) != HostName()) {
@@ -66,6 +64,8 @@ bool IsEndedWriterOfThisHost(const std::string& tag) {
   return name_end != std::string::npos && name_end + 2 < line.size() &&
          (line[name_end + 2] == 'Z' || line[name_end + 2] == 'X');
 }
+
+namespace {
 
 std::string ParentFolder(const std::string& path) {
   const boost::filesystem::path parent =

@@ -14,6 +14,19 @@
 
 namespace colmap {
 
+// This host's name.
+std::string HostName();
+
+// The writer's tag (HOST-PID, this host and process), in its temporary
+// names: a leftover of a process that no longer runs on this host can be
+// told from the output another process (on this host or another sharing
+// the folder) is writing.
+std::string WriterTag();
+
+// Whether `tag` (HOST-PID) names a process of this host that has ended
+// (no longer runs, or a zombie nobody reaped yet).
+bool IsEndedWriterOfThisHost(const std::string& tag);
+
 // Writes the model (COLMAP binary format) to the folder `path`, replacing
 // a model that is there.
 void WriteReconstructionAtomically(const Reconstruction& reconstruction,

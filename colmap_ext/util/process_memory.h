@@ -34,10 +34,9 @@ bool ReleaseFreedMemory();
 // (keypoints, tracks, solver matrices) are then carved from the heap among
 // small blocks that outlive them, and their pages stay resident into the
 // next phase. A run whose phases hold different data (communities, then the
-// merge) then peaks at the next phase's data plus the last one's remnants:
-// on a generated loop of 1002 images, 60 MB left after the communities, 38
-// MB with the threshold fixed at 128 KB, and a peak of 604 MB against 580 MB
-// at the same run time. Returns whether the threshold was set.
+// merge) then peaks at the next phase's data plus the last one's remnants;
+// with the threshold fixed, less is left and the peak is lower at the same
+// run time (docs/design.md). Returns whether the threshold was set.
 bool MapLargeAllocationsApart(int min_bytes = 128 * 1024);
 
 }  // namespace colmap

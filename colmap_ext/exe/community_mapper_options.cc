@@ -1,0 +1,273 @@
+#include "colmap_ext/exe/community_mapper_options.h"
+
+#include <set>
+#include <sstream>
+
+namespace colmap {
+namespace {
+
+// A value as project.ini and docs/options.md write it.
+std::string ValueToText(const CommunityMapperOption& option) {
+  std::ostringstream text;
+  option.Visit([&text](const auto* field) { text << *field; });
+  return text.str();
+}
+
+}  // namespace
+
+std::vector<CommunityMapperOption> CommunityMapperOptionTable(
+    CommunityMapperCommandOptions* options) {
+  CommunityMapperController::Options& mapper = options->mapper;
+  CommunityDetectionOptions& detection = mapper.community_detection;
+  CommunityMergeOptions& merge = mapper.merge;
+  MergedModelRefinementOptions& refinement = merge.refinement;
+  SimilarityAveragingOptions& averaging = merge.similarity_averaging;
+  const bool kShapesPlan = true;
+  const bool kAdvanced = true;
+  return {
+      // The options users set.
+      {"modularity_threshold",
+       &detection.modularity_threshold,
+       "split a view (sub)graph into communities only where its peak "
+       "modularity Qmax exceeds this (the CSfM paper: 0.3)",
+       kShapesPlan},
+      {"min_community_size",
+       &detection.min_community_size,
+       "communities with fewer images join their most connected neighbour "
+       "(the CSfM paper: 20)",
+       kShapesPlan},
+      {"max_community_fraction",
+       &detection.max_community_fraction,
+       "a (sub)graph holding more than this fraction of its connected "
+       "component is split at its modularity peak even below the threshold, "
+       "once per branch, so that no community sets the pace alone (1: the "
+       "threshold only)",
+       kShapesPlan},
+      {"edge_weights",
+       &options->edge_weights,
+       "view-graph edge weights for community detection: unit (the paper) "
+       "or num_inliers (verified inlier matches)",
+       kShapesPlan},
+      {"image_overlap",
+       &mapper.image_overlap,
+       "images each community borrows from each neighbouring community, so "
+       "that their models share points (0: none, as in the paper)",
+       kShapesPlan},
+      {"num_workers",
+       &mapper.num_workers,
+       "communities reconstructed at once (-1: one per CPU core)"},
+      {"merge_other_models",
+       &merge.merge_other_models,
+       "where a community's mapper made several models, the others holding "
+       "at least Mapper.min_model_size of its own images take part in the "
+       "merge as extra communities (0: their images are registered one by "
+       "one)"},
+      {"register_remaining_images",
+       &refinement.register_remaining_images,
+       "the merged model registers the images that no community registered"},
+      {"overwrite",
+       &options->overwrite,
+       "replace the results of an earlier run in output_path instead of "
+       "resuming it (community_reconstructor: reconstruct the community "
+       "again)",
+       false,
+       false,
+       /*saved=*/false},
+
+      // Advanced options, prefixed by their stage.
+      {"partition_max_part_conductance",
+       &detection.max_part_conductance,
+       "a split above the modularity threshold is refused where a part has "
+       "more than this share of its edges to the other parts (1: the "
+       "threshold only)",
+       kShapesPlan,
+       kAdvanced},
+      {"partition_max_joined_part_fraction",
+       &detection.max_joined_part_fraction,
+       "such a part holding at most this fraction of the split graph (a "
+       "short connecting piece) joins its most connected sibling instead of "
+       "refusing the split (0: always refuse)",
+       kShapesPlan,
+       kAdvanced},
+      {"community_ba_function_tolerance",
+       &mapper.community_ba_function_tolerance,
+       "relative function tolerance of the communities' global bundle "
+       "adjustments (-1: Mapper.ba_global_function_tolerance)",
+       kShapesPlan,
+       kAdvanced},
+      {"community_ba_global_ratio",
+       &mapper.community_ba_global_ratio,
+       "growth of a community's model (images or points) after which it is "
+       "bundle adjusted as a whole (-1: Mapper.ba_global_images_ratio and "
+       "Mapper.ba_global_points_ratio)",
+       kShapesPlan,
+       kAdvanced},
+      {"pairwise_max_relative_error",
+       &merge.pairwise_similarity.max_relative_error,
+       "RANSAC inlier threshold of the similarity between two communities, "
+       "as a fraction of the spread of their co-visible points",
+       false,
+       kAdvanced},
+      {"pairwise_min_num_inliers",
+       &merge.pairwise_similarity.min_num_inliers,
+       "inlier point correspondences a similarity between two communities "
+       "needs to be used",
+       false,
+       kAdvanced},
+      {"covisibility_min_rate_ratio",
+       &merge.covisibility_check.min_rate_ratio,
+       "reject a similarity under which the image pairs it makes co-visible "
+       "were verified less often than this fraction of the rate inside the "
+       "communities (0: no check)",
+       false,
+       kAdvanced},
+      {"averaging_max_rotation_residual_deg",
+       &averaging.max_rotation_residual_deg,
+       "drop a similarity whose rotation disagrees with the averaging by "
+       "more (degrees)",
+       false,
+       kAdvanced},
+      {"averaging_max_log_scale_residual",
+       &averaging.max_log_scale_residual,
+       "... or whose log scale does by more",
+       false,
+       kAdvanced},
+      {"averaging_max_relative_translation_residual",
+       &averaging.max_relative_translation_residual,
+       "... or whose translation does by more, relative to its points' "
+       "spread",
+       false,
+       kAdvanced},
+      {"ba_function_tolerance",
+       &refinement.function_tolerance,
+       "the merged model's bundle adjustments stop once an iteration gains "
+       "less than this fraction of the cost",
+       false,
+       kAdvanced},
+      {"ba_max_refinement_change",
+       &refinement.max_refinement_change,
+       "the merged model's rounds of bundle adjustment, filtering and track "
+       "completion stop once fewer than this fraction of the observations "
+       "change (-1: Mapper.ba_global_max_refinement_change)",
+       false,
+       kAdvanced},
+      {"ba_reduced_adjustment",
+       &refinement.reduced_adjustment,
+       "the merged model's rounds adjust the cameras on a selected subset of "
+       "the tracks and the other points with the cameras fixed, where that "
+       "subset holds at most half of the observations (0: over all)",
+       false,
+       kAdvanced},
+      {"ba_reload_correspondences",
+       &refinement.reload_correspondences,
+       "the merged model's bundle adjustments run with the correspondences "
+       "released, loaded again after each (less memory, a little more time)",
+       false,
+       kAdvanced},
+      {"ba_sparse_solver",
+       &refinement.sparse_solver,
+       "the sparse direct solver in the merged model's bundle adjustments at "
+       "any size (0: as COLMAP chooses, iterative above 1000 images)",
+       false,
+       kAdvanced},
+  };
+}
+
+void AddCommunityMapperOptions(CommunityMapperCommandOptions* options,
+                               OptionManager* option_manager) {
+  for (const CommunityMapperOption& option :
+       CommunityMapperOptionTable(options)) {
+    option.Visit([&](auto* field) {
+      option_manager->AddDefaultOption(
+          "CommunityMapper." + option.name, field, option.help);
+    });
+  }
+}
+
+std::string CommunityMapperIniSection(
+    const CommunityMapperCommandOptions& options) {
+  CommunityMapperCommandOptions copy = options;
+  std::string section = "[CommunityMapper]\n";
+  for (const CommunityMapperOption& option :
+       CommunityMapperOptionTable(&copy)) {
+    if (option.saved) {
+      section += option.name + "=" + ValueToText(option) + "\n";
+    }
+  }
+  return section;
+}
+
+std::vector<std::string> CommunityMapperPlanKeys() {
+  CommunityMapperCommandOptions defaults;
+  std::vector<std::string> keys;
+  for (const CommunityMapperOption& option :
+       CommunityMapperOptionTable(&defaults)) {
+    if (option.shapes_plan) {
+      keys.push_back(option.name);
+    }
+  }
+  return keys;
+}
+
+std::string CommunityMapperOptionsMarkdown() {
+  CommunityMapperCommandOptions defaults;
+  const std::vector<CommunityMapperOption> table =
+      CommunityMapperOptionTable(&defaults);
+  std::string text =
+      "# `colmap community_mapper` options\n\n"
+      "Generated from the option table "
+      "(`colmap_ext/exe/community_mapper_options.cc`); "
+      "`colmap community_mapper -h` lists the same. Every option is "
+      "`--CommunityMapper.NAME VALUE`. The command also takes COLMAP's "
+      "`--Mapper.*` options (every community's incremental mapper and the "
+      "merge's registration, triangulation and bundle adjustment; "
+      "`--Mapper.min_num_matches` is the view graph's minimum of verified "
+      "inlier matches per edge), `--image_list_path` and `--project_path`.\n"
+      "\n"
+      "Options marked *plan* shape the partition and the communities' "
+      "models: the plan records them, and a later stage or a resumed run "
+      "given another value is refused.\n";
+  for (const bool advanced : {false, true}) {
+    text += advanced ? "\n## Advanced options, by stage\n\n"
+                     : "\n## Options users set\n\n";
+    text += "| option | default | meaning |\n| --- | --- | --- |\n";
+    for (const CommunityMapperOption& option : table) {
+      if (option.advanced == advanced) {
+        text += "| `" + option.name + "` | " + ValueToText(option) +
+                " | " + (option.shapes_plan ? "*plan*: " : "") + option.help +
+                " |\n";
+      }
+    }
+  }
+  return text;
+}
+
+std::string PlanOptionsFromIni(const std::string& project_ini) {
+  const std::vector<std::string> plan_keys = CommunityMapperPlanKeys();
+  const std::set<std::string> kCommunityMapperKeys(plan_keys.begin(),
+                                                    plan_keys.end());
+  static const std::set<std::string> kIgnoredMapperKeys = {
+      "num_threads", "snapshot_path", "snapshot_images_freq"};
+  std::string plan_options;
+  std::string section;
+  std::istringstream lines(project_ini);
+  std::string line;
+  while (std::getline(lines, line)) {
+    if (!line.empty() && line[0] == '[') {
+      section = line.substr(1, line.find(']') - 1);
+      continue;
+    }
+    const size_t equals = line.find('=');
+    if (equals == std::string::npos) {
+      continue;
+    }
+    const std::string key = line.substr(0, equals);
+    if ((section == "Mapper" && kIgnoredMapperKeys.count(key) == 0) ||
+        (section == "CommunityMapper" && kCommunityMapperKeys.count(key))) {
+      plan_options += section + "." + line + "\n";
+    }
+  }
+  return plan_options;
+}
+
+}  // namespace colmap

@@ -1,0 +1,824 @@
+#include "colmap_ext/sfm/community_merge.h"
+
+#include "colmap_ext/graph/view_graph.h"
+#include "colmap_ext/sfm/community_alignment.h"
+#include "colmap_ext/sfm/part_offers.h"
+#include "colmap_ext/util/process_memory.h"
+
+#include "colmap/math/random.h"
+#include "colmap/scene/database.h"
+#include "colmap/scene/database_cache.h"
+#include "colmap/util/misc.h"
+#include "colmap/util/timer.h"
+
+#include <algorithm>
+#include <map>
+
+namespace colmap {
+namespace {
+
+using Models = std::vector<std::shared_ptr<Reconstruction>>;
+
+// Where the memory stands after a step (for a long run's log).
+void LogMemory(const std::string& step) {
+  LOG(INFO) << "Memory after " << step << ": "
+            << ProcessMemoryToString(ReadProcessMemory());
+}
+
+// The own images of every community, by the plan (the merge adds its extra
+// communities).
+struct CommunityImages {
+  std::vector<std::unordered_set<image_t>> own_image_ids;
+  std::unordered_map<image_t, std::string> name_of_image;
+  std::unordered_map<image_t, int> community_of_image;
+};
+
+CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
+                                       const CommunityPlan& plan) {
+  std::unordered_map<std::string, image_t> image_of_name;
+  for (size_t vertex = 0; vertex < view_graph.NumVertices(); ++vertex) {
+    image_of_name.emplace(view_graph.ImageNames()[vertex],
+                          view_graph.ImageIds()[vertex]);
+  }
+  CommunityImages groups;
+  groups.own_image_ids.resize(plan.NumCommunities());
+  for (int c = 0; c < plan.NumCommunities(); ++c) {
+    for (const std::string& name : plan.communities[c].own_image_names) {
+      const image_t image_id = image_of_name.at(name);
+      groups.own_image_ids[c].insert(image_id);
+      groups.name_of_image.emplace(image_id, name);
+      groups.community_of_image.emplace(image_id, c);
+    }
+  }
+  return groups;
+}
+
+// Community `record.community_id`'s other models, as its stage wrote them
+// into `workspace` (largest first), each become an extra community if they
+// registered at least `min_model_size` of the community's own images that
+// no larger model of it taking part did. The extra community, numbered after
+// those in `models`, owns those images (the community keeps the others):
+// its shape is the mapper's, joined by a similarity as any community's,
+// instead of its images being registered anew one by one into the merged
+// model. Its report and origin are added to `result`.
+void AddExtraCommunities(const CommunityWorkspace& workspace,
+                         const CommunityRecord& record,
+                         const int min_model_size,
+                         CommunityImages* communities,
+                         Models* models,
+                         std::vector<std::string>* model_paths,
+                         CommunityMergeResult* result) {
+  const int c = record.community_id;
+  std::unordered_set<image_t> taken_image_ids(
+      (*models)[c]->RegImageIds().begin(), (*models)[c]->RegImageIds().end());
+  for (int index = 1; index <= record.num_other_models; ++index) {
+    auto other_model = std::make_shared<Reconstruction>();
+    const std::string path = workspace.CommunityOtherModelPath(c, index);
+    other_model->Read(path);
+    std::unordered_set<image_t> owned_image_ids;
+    for (const image_t image_id : other_model->RegImageIds()) {
+      if (communities->own_image_ids[c].count(image_id) > 0 &&
+          taken_image_ids.count(image_id) == 0) {
+        owned_image_ids.insert(image_id);
+      }
+    }
+    if (static_cast<int>(owned_image_ids.size()) < min_model_size) {
+      LOG(INFO) << StringPrintf(
+          "Community %d's model %d of %d holds %d of its own images that no "
+          "larger model of it holds: too few to take part",
+          c,
+          index + 1,
+          record.num_models,
+          static_cast<int>(owned_image_ids.size()));
+      continue;
+    }
+    taken_image_ids.insert(other_model->RegImageIds().begin(),
+                           other_model->RegImageIds().end());
+    const int extra = static_cast<int>(models->size());
+    LOG(INFO) << StringPrintf(
+        "Community %d's model %d of %d (%d images, %d of its own that no "
+        "larger model of it holds) takes part as community %d",
+        c,
+        index + 1,
+        record.num_models,
+        static_cast<int>(other_model->NumRegImages()),
+        static_cast<int>(owned_image_ids.size()),
+        extra);
+    for (const image_t image_id : owned_image_ids) {
+      communities->own_image_ids[c].erase(image_id);
+      communities->community_of_image[image_id] = extra;
+    }
+    communities->own_image_ids.push_back(std::move(owned_image_ids));
+    CommunityModelReport report = result->community_reports[c];
+    report.num_registered = static_cast<int>(other_model->NumRegImages());
+    report.mean_reprojection_error =
+        other_model->ComputeMeanReprojectionError();
+    report.model_index = index + 1;
+    result->community_reports.push_back(report);
+    result->extra_community_origins.push_back(c);
+    models->push_back(std::move(other_model));
+    model_paths->push_back(path);
+  }
+}
+
+// The images of `image_ids` that are not in `taken_image_ids`.
+template <typename ImageIds>
+std::unordered_set<image_t> ImagesNotTaken(
+    const ImageIds& image_ids,
+    const std::unordered_set<image_t>& taken_image_ids) {
+  std::unordered_set<image_t> left_image_ids;
+  for (const image_t image_id : image_ids) {
+    if (taken_image_ids.count(image_id) == 0) {
+      left_image_ids.insert(image_id);
+    }
+  }
+  return left_image_ids;
+}
+
+// Joins the communities of one part (connected by kept similarities) into
+// one model in the global frame, merges their corresponding points and
+// refines the result on the part's own images plus `extra_image_names`
+// (images of communities without a model or that left the merge, and of
+// parts offered to this one, which the refinement tries to register). Own
+// images in `taken_image_ids` (registered by an earlier part's model) are
+// left out. `offered_models` are the models (their own images only) of the
+// communities of parts offered to this one and of those offered to it
+// that left the merge for want of a confirmed link, which the refinement
+// registers as blocks where it can. The communities' own models are
+// consumed. Adds the seconds spent in the refinement to
+// `refinement_seconds`.
+std::shared_ptr<Reconstruction> MergePart(
+    const CommunityMergeOptions& options,
+    const std::vector<int>& part_communities,
+    const CommunityImages& communities,
+    const std::vector<RelativeSimilarity>& similarities,
+    const SimilarityAveragingResult& averaging,
+    const std::unordered_set<std::string>& extra_image_names,
+    const std::unordered_set<image_t>& taken_image_ids,
+    const std::unordered_set<image_pair_t>& false_pairs,
+    const ViewGraph& view_graph,
+    const std::vector<std::shared_ptr<const Reconstruction>>& offered_models,
+    Models* models,
+    double* refinement_seconds) {
+  LOG(INFO) << "Merging communities" << [&] {
+    std::string ids;
+    for (const int c : part_communities) ids += " " + std::to_string(c);
+    return ids;
+  }();
+  std::vector<Reconstruction*> part_models;
+  std::vector<Sim3d> world_from_community;
+  std::vector<std::unordered_set<image_t>> owned_image_ids;
+  std::unordered_set<std::string> part_image_names = extra_image_names;
+  std::map<int, size_t> index_in_part;
+  std::unordered_map<image_t, int> community_of_image;
+  for (const int c : part_communities) {
+    for (const image_t image_id : communities.own_image_ids[c]) {
+      community_of_image.emplace(image_id, c);
+    }
+    index_in_part.emplace(c, part_models.size());
+    part_models.push_back((*models)[c].get());
+    world_from_community.push_back(averaging.world_from_community[c]);
+    owned_image_ids.push_back(
+        ImagesNotTaken(communities.own_image_ids[c], taken_image_ids));
+    for (const image_t image_id : owned_image_ids.back()) {
+      part_image_names.insert(communities.name_of_image.at(image_id));
+    }
+  }
+  // An image left without any pair (all contradicting the merge) cannot be
+  // refined: it stays out. (The view graph tells, before the models are
+  // joined and released, which images the correspondences will hold.)
+  std::unordered_set<image_t> connected_image_ids;
+  for (const ViewGraph::Edge& edge : view_graph.Edges()) {
+    const image_t image_id1 = view_graph.ImageIds()[edge.vertex1];
+    const image_t image_id2 = view_graph.ImageIds()[edge.vertex2];
+    if (part_image_names.count(view_graph.ImageNames()[edge.vertex1]) &&
+        part_image_names.count(view_graph.ImageNames()[edge.vertex2]) &&
+        !false_pairs.count(Database::ImagePairToPairId(image_id1, image_id2))) {
+      connected_image_ids.insert(image_id1);
+      connected_image_ids.insert(image_id2);
+    }
+  }
+  for (std::unordered_set<image_t>& image_ids : owned_image_ids) {
+    for (auto it = image_ids.begin(); it != image_ids.end();) {
+      if (connected_image_ids.count(*it)) {
+        ++it;
+      } else {
+        LOG(WARNING) << "Image " << communities.name_of_image.at(*it)
+                     << " has no image pair left in the merged model; it is "
+                        "left out.";
+        it = image_ids.erase(it);
+      }
+    }
+  }
+  auto merged = std::make_shared<Reconstruction>();
+  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
+  JoinReconstructions(part_models,
+                      world_from_community,
+                      owned_image_ids,
+                      merged.get(),
+                      &point3D_ids);
+  for (const int c : part_communities) {
+    (*models)[c].reset();  // Joined: the community's copy is not needed.
+  }
+  ReleaseFreedMemory();
+
+  std::vector<std::pair<point3D_t, point3D_t>> corresponding_points;
+  for (size_t e = 0; e < similarities.size(); ++e) {
+    if (!averaging.edges[e].kept ||
+        averaging.part_of_community[similarities[e].community1] !=
+            averaging.part_of_community[part_communities[0]]) {
+      continue;
+    }
+    const auto& ids1 =
+        point3D_ids[index_in_part.at(similarities[e].community1)];
+    const auto& ids2 =
+        point3D_ids[index_in_part.at(similarities[e].community2)];
+    for (const auto& pair : similarities[e].point3D_ids) {
+      const auto it1 = ids1.find(pair.first);
+      const auto it2 = ids2.find(pair.second);
+      if (it1 != ids1.end() && it2 != ids2.end()) {
+        corresponding_points.emplace_back(it1->second, it2->second);
+      }
+    }
+  }
+  const size_t num_merged_points =
+      MergeCorrespondingPoints(corresponding_points, merged.get());
+  LOG(INFO) << StringPrintf(
+      "Joined %d images and %d points; merged %d corresponding points",
+      static_cast<int>(merged->NumRegImages()),
+      static_cast<int>(merged->NumPoints3D()),
+      static_cast<int>(num_merged_points));
+  LogMemory("joining the models");
+
+  // The correspondences, once the communities' models are released and
+  // the joined cameras aligned (RefineMergedModel).
+  const auto load_correspondences = [&]() {
+    std::shared_ptr<DatabaseCache> database_cache;
+    {
+      const Database database(options.database_path);
+      database_cache = DatabaseCache::Create(
+          database,
+          static_cast<size_t>(options.min_num_matches),
+          options.incremental_options.ignore_watermarks,
+          part_image_names,
+          [&false_pairs](const image_t image_id1, const image_t image_id2) {
+            return false_pairs.count(
+                       Database::ImagePairToPairId(image_id1, image_id2)) == 0;
+          });
+    }
+    // Building the correspondence graph grows a vector per keypoint and
+    // then flattens them; the freed vectors would stay resident through the
+    // refinement (see ReleaseFreedMemory).
+    ReleaseFreedMemory();
+    for (const image_t image_id : merged->RegImageIds()) {
+      THROW_CHECK(database_cache->ExistsImage(image_id))
+          << "image " << merged->Image(image_id).Name()
+          << " has no correspondences";
+    }
+    LogMemory("loading the correspondences");
+    return std::shared_ptr<const DatabaseCache>(std::move(database_cache));
+  };
+
+  Timer timer;
+  timer.Start();
+  const MergedModelRefinementSummary refinement =
+      RefineMergedModel(options.refinement,
+                        options.incremental_options,
+                        load_correspondences,
+                        community_of_image,
+                        offered_models,
+                        merged);
+  *refinement_seconds += timer.ElapsedSeconds();
+  LogMemory("the refinement");
+  LOG(INFO) << StringPrintf(
+      "Merged model: %d images, %d points, mean reprojection error %.3f px "
+      "(%.3f px before refinement), %d images newly registered (%d as "
+      "blocks), %d misplaced ones registered again",
+      static_cast<int>(merged->NumRegImages()),
+      static_cast<int>(merged->NumPoints3D()),
+      refinement.final_mean_reprojection_error,
+      refinement.initial_mean_reprojection_error,
+      refinement.num_newly_registered_images,
+      refinement.num_block_registered_images,
+      refinement.num_reregistered_images);
+  if (options.incremental_options.extract_colors) {
+    merged->ExtractColorsForAllImages(options.image_path);
+  }
+  return merged;
+}
+
+// The communities' models as their stage left them in `workspace` (none
+// for a community that registered nothing), the plan's first, then, with
+// `options.merge_other_models`, the extra communities (AddExtraCommunities),
+// with their paths; their reports go to `result`.
+void ReadCommunityModels(const CommunityMergeOptions& options,
+                         const CommunityWorkspace& workspace,
+                         const int num_plan_communities,
+                         CommunityImages* communities,
+                         Models* models_ptr,
+                         std::vector<std::string>* model_paths,
+                         CommunityMergeResult* result) {
+  Models& models = *models_ptr;
+  models.assign(num_plan_communities, nullptr);
+  model_paths->clear();
+  std::vector<CommunityRecord> records;
+  result->community_reports.assign(num_plan_communities,
+                                    CommunityModelReport());
+  for (int c = 0; c < num_plan_communities; ++c) {
+    records.push_back(CommunityRecordFromText(
+        ReadTextFile(workspace.CommunityRecordPath(c))));
+    const CommunityRecord& record = records.back();
+    CommunityModelReport& report = result->community_reports[c];
+    report.num_images = record.num_images;
+    report.num_registered = record.num_registered;
+    report.num_models = record.num_models;
+    report.mean_reprojection_error = record.mean_reprojection_error;
+    model_paths->push_back(workspace.CommunityModelPath(c));
+    if (record.num_registered > 0) {
+      models[c] = std::make_shared<Reconstruction>();
+      models[c]->Read(model_paths->back());
+    }
+  }
+  // Where a community's mapper made several models, the others take part
+  // as extra communities (AddExtraCommunities).
+  result->extra_community_origins.clear();
+  for (int c = 0; c < num_plan_communities; ++c) {
+    if (models[c] && options.merge_other_models) {
+      AddExtraCommunities(workspace,
+                          records[c],
+                          options.incremental_options.min_model_size,
+                          communities,
+                          models_ptr,
+                          model_paths,
+                          result);
+    }
+  }
+}
+
+// Judges every community's own model (JudgeCommunityModels: broken ones
+// leave the merge, doubtful ones count little) and averages the
+// similarities between them. Logs each link's residuals and fate. Fills the
+// judgements and the links of `result`.
+SimilarityAveragingResult JudgeAndAverage(
+    const CommunityMergeOptions& options,
+    const CommunitySimilarities& community_similarities,
+    CommunityMergeResult* result) {
+  const int num_communities =
+      static_cast<int>(result->community_reports.size());
+  result->community_judgements =
+      JudgeCommunityModels(result->community_reports, options.judgement);
+  std::vector<AveragedCommunity> averaged_communities(num_communities);
+  for (int c = 0; c < num_communities; ++c) {
+    const CommunityJudgement& judgement = result->community_judgements[c];
+    averaged_communities[c].num_images =
+        result->community_reports[c].num_registered;
+    averaged_communities[c].doubtful = judgement.doubtful;
+    averaged_communities[c].excluded = judgement.broken;
+    if (judgement.broken || judgement.doubtful) {
+      LOG(WARNING) << StringPrintf(
+          "Community %d is %s (%s)%s",
+          c,
+          judgement.broken ? "broken" : "in doubt",
+          judgement.reason.c_str(),
+          judgement.broken ? "" : ": it takes part with little weight.");
+    }
+  }
+  const std::vector<RelativeSimilarity>& similarities =
+      community_similarities.similarities;
+  SimilarityAveragingResult averaging = AverageSimilarities(
+      averaged_communities, similarities, options.similarity_averaging);
+  result->community_excluded = averaging.excluded;
+  result->num_estimated_similarities = static_cast<int>(similarities.size());
+  result->num_kept_similarities = 0;
+  for (size_t e = 0; e < similarities.size(); ++e) {
+    const auto& report = averaging.edges[e];
+    result->num_kept_similarities += report.kept ? 1 : 0;
+    LOG(INFO) << StringPrintf(
+        "Communities %d-%d: residuals rotation %.3f deg, scale %.4f, "
+        "translation %.4f -> %s",
+        similarities[e].community1,
+        similarities[e].community2,
+        report.rotation_residual_deg,
+        report.log_scale_residual,
+        report.relative_translation_residual,
+        report.kept           ? "kept"
+        : report.contradicted ? "dropped before the averaging (the images "
+                                "both models registered contradict it)"
+        : report.unconfirmed  ? "dropped (on no cycle, and the images both "
+                                "models registered do not confirm it)"
+                              : "dropped");
+  }
+  return averaging;
+}
+
+// The cross pairs of rejected transforms (community_alignment.h), but those
+// of the transforms the merge confirms (Options::confirm_rejected_links).
+std::unordered_set<image_pair_t> FalsePairsAfterTheMerge(
+    const CommunityMergeOptions& options,
+    const CommunitySimilarities& community_similarities,
+    const SimilarityAveragingResult& averaging) {
+  const std::vector<RelativeSimilarity>& similarities =
+      community_similarities.similarities;
+  std::unordered_set<image_pair_t> false_pairs =
+      community_similarities.false_pairs;
+  if (!options.confirm_rejected_links) {
+    return false_pairs;
+  }
+  for (const RejectedSimilarity& rejected :
+       community_similarities.rejected_similarities) {
+    const MergeResiduals residuals =
+        ResidualsAgainstMerge(rejected, similarities, averaging);
+    if (!residuals.joined) {
+      continue;  // Not joined through other links: nothing to confirm it.
+    }
+    const bool confirmed = residuals.WithinBounds(
+        options.similarity_averaging, options.rejected_link_max_drift_factor);
+    LOG(INFO) << StringPrintf(
+        "Communities %d-%d: the similarity the co-visibility check rejected "
+        "(%d inliers) against the merge: rotation %.3f deg, scale %.4f, "
+        "translation %.4f (links between them: resistance %.2f, bounds times "
+        "%.2f) -> %s",
+        rejected.similarity.community1,
+        rejected.similarity.community2,
+        static_cast<int>(rejected.similarity.points1.size()),
+        residuals.report.rotation_residual_deg,
+        residuals.report.log_scale_residual,
+        residuals.report.relative_translation_residual,
+        residuals.path_resistance,
+        residuals.DriftFactor(options.rejected_link_max_drift_factor),
+        confirmed ? StringPrintf("confirmed: its %d image pairs stay in the "
+                                 "refinement",
+                                 static_cast<int>(rejected.pairs.size()))
+                        .c_str()
+                  : "still rejected");
+    if (confirmed) {
+      for (const image_pair_t pair_id : rejected.pairs) {
+        false_pairs.erase(pair_id);
+      }
+    }
+  }
+  return false_pairs;
+}
+
+// Communities that the averaging sent out of the merge lose their model
+// here (their images are offered to the merged models); returns those
+// whose model is not broken, which keep the images no merged model
+// registers (MergeParts). `unconfirmed_communities` receives those of them
+// in doubt that left for want of a link their shared images confirm (no
+// evidence against their model, unlike links that disagree: such a model
+// may be bent), whose models may join as blocks.
+std::vector<int> SetAsideExcludedCommunities(
+    const std::vector<RelativeSimilarity>& similarities,
+    const SimilarityAveragingResult& averaging,
+    Models* models_ptr,
+    std::vector<int>* unconfirmed_communities,
+    CommunityMergeResult* result) {
+  const int num_communities = static_cast<int>(models_ptr->size());
+  std::vector<int> set_aside_communities;
+  Models& models = *models_ptr;
+  for (int c = 0; c < num_communities; ++c) {
+    if (averaging.excluded[c]) {
+      bool unconfirmed = false;
+      for (size_t e = 0; e < similarities.size(); ++e) {
+        unconfirmed = unconfirmed || ((similarities[e].community1 == c ||
+                                       similarities[e].community2 == c) &&
+                                      averaging.edges[e].unconfirmed);
+      }
+      LOG(WARNING) << StringPrintf(
+          "Community %d leaves the merge: %s. Its images are offered to the "
+          "merged model.",
+          c,
+          result->community_judgements[c].broken ? "its model is broken"
+          : result->community_judgements[c].doubtful
+              ? (unconfirmed ? "nothing confirms its similarities and its "
+                               "model is in doubt"
+                             : "its similarities disagree with the other "
+                               "communities' and its model is in doubt")
+              : "its similarities disagree with the other communities' "
+                "and it is small");
+      if (!result->community_judgements[c].broken) {
+        set_aside_communities.push_back(c);
+        if (unconfirmed && result->community_judgements[c].doubtful) {
+          unconfirmed_communities->push_back(c);
+        }
+      }
+      models[c].reset();
+    }
+  }
+  return set_aside_communities;
+}
+
+// Merges every part of the averaging (communities joined by kept
+// similarities) into one model (MergePart), largest parts first as the
+// averaging numbers them, each on the images no earlier part's model
+// registered plus those offered to it; a part left with fewer than two
+// images has no model, and a part of one community with nothing offered is
+// its model as it is. Then the set-aside communities keep, as models of
+// their own, the images no merged model registered (at least
+// Mapper.min_model_size of them). The models are consumed; the seconds
+// spent in the refinements are added to `refinement_seconds`.
+std::vector<std::shared_ptr<Reconstruction>> MergeParts(
+    const CommunityMergeOptions& options,
+    const CommunityImages& communities,
+    const std::vector<RelativeSimilarity>& similarities,
+    const SimilarityAveragingResult& averaging,
+    const PartOffers& offers,
+    const std::vector<int>& set_aside_communities,
+    const std::unordered_set<image_pair_t>& false_pairs,
+    const ViewGraph& view_graph,
+    const std::vector<std::string>& model_paths,
+    Models* models_ptr,
+    double* refinement_seconds) {
+  Models& models = *models_ptr;
+  const int num_communities = static_cast<int>(models.size());
+  // By part: the names of the images offered to it.
+  std::map<int, std::unordered_set<std::string>> extra_image_names_of_part;
+  for (const auto& part_and_communities : offers.image_communities_of_part) {
+    for (const int c : part_and_communities.second) {
+      for (const image_t image_id : communities.own_image_ids[c]) {
+        extra_image_names_of_part[part_and_communities.first].insert(
+            communities.name_of_image.at(image_id));
+      }
+    }
+  }
+  // The models written, and the images they registered (which later parts
+  // and communities leave out).
+  std::vector<std::shared_ptr<Reconstruction>> merged_models;
+  std::unordered_set<image_t> registered_image_ids;
+  const auto keep_model = [&](std::shared_ptr<Reconstruction> model) {
+    registered_image_ids.insert(model->RegImageIds().begin(),
+                                model->RegImageIds().end());
+    merged_models.push_back(std::move(model));
+  };
+  // Community c's model restricted to its own images that no earlier
+  // model registered: `model` (its copy in memory), or as its stage wrote
+  // it if null.
+  const auto left_model = [&](const int c,
+                              std::shared_ptr<Reconstruction> model) {
+    if (!model) {
+      model = std::make_shared<Reconstruction>();
+      model->Read(model_paths[c]);
+    }
+    return RestrictToImages(
+        ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
+        std::move(model));
+  };
+  for (int part = 0; part < averaging.NumParts(); ++part) {
+    std::vector<int> part_communities;
+    size_t num_left_images = 0;
+    for (int c = 0; c < num_communities; ++c) {
+      if (averaging.part_of_community[c] != part || !models[c]) {
+        continue;
+      }
+      part_communities.push_back(c);
+      size_t num_taken = 0;
+      for (const image_t image_id : models[c]->RegImageIds()) {
+        if (communities.own_image_ids[c].count(image_id) == 0) {
+          continue;
+        }
+        if (registered_image_ids.count(image_id)) {
+          ++num_taken;
+        } else {
+          ++num_left_images;
+        }
+      }
+      if (num_taken > 0) {
+        LOG(INFO) << StringPrintf(
+            "Community %d: %d of its own images are in an earlier part's "
+            "model already",
+            c,
+            static_cast<int>(num_taken));
+      }
+    }
+    for (const image_t image_id : registered_image_ids) {
+      const auto it = communities.name_of_image.find(image_id);
+      if (it != communities.name_of_image.end()) {
+        extra_image_names_of_part[part].erase(it->second);
+      }
+    }
+    if (part_communities.empty()) {
+      continue;
+    }
+    // (Images offered to it could not register either: there would be no
+    // points to register them on.)
+    if (num_left_images < 2) {
+      LOG(WARNING) << StringPrintf(
+          "Part %d: fewer than 2 of its communities' own images are left to "
+          "it: no model for it.",
+          part);
+      for (const int c : part_communities) {
+        models[c].reset();
+      }
+      continue;
+    }
+    // A part of one community is taken as it is, unless images of other
+    // communities are offered to it.
+    if (part_communities.size() == 1 &&
+        extra_image_names_of_part[part].empty()) {
+      const int c = part_communities[0];
+      std::shared_ptr<Reconstruction> model = left_model(c, models[c]);
+      models[c].reset();
+      if (model->NumRegImages() < 2) {
+        LOG(WARNING) << StringPrintf(
+            "Community %d, alone in its part, registered fewer than 2 of its "
+            "own images: no model for it.",
+            c);
+        continue;
+      }
+      keep_model(std::move(model));
+      continue;
+    }
+    try {
+      // Offered parts come after the part they are offered to: their models
+      // are still there. Each keeps only its community's own images: those
+      // of its neighbours it registered came through cross-community pairs,
+      // which may be the repeated structure whose transform the merge
+      // rejected (two identical towers: the model registers its neighbour's
+      // images stacked on its own tower, and they agree with the stacking
+      // transform). A block then joins only through its own images that the
+      // refinement registered one by one.
+      // Those of communities that left the merge are read again.
+      std::vector<std::shared_ptr<const Reconstruction>> offered_models;
+      const auto offered = offers.model_communities_of_part.find(part);
+      if (offered != offers.model_communities_of_part.end()) {
+        for (const int c : offered->second) {
+          offered_models.push_back(left_model(c, models[c]));
+        }
+      }
+      std::shared_ptr<Reconstruction> merged =
+          MergePart(options,
+                    part_communities,
+                    communities,
+                    similarities,
+                    averaging,
+                    extra_image_names_of_part[part],
+                    registered_image_ids,
+                    false_pairs,
+                    view_graph,
+                    offered_models,
+                    &models,
+                    refinement_seconds);
+      if (merged->NumRegImages() < 2) {
+        LOG(WARNING) << StringPrintf(
+            "Part %d: its merged model holds fewer than 2 images: no model "
+            "for it.",
+            part);
+        continue;
+      }
+      keep_model(std::move(merged));
+    } catch (const std::exception& error) {
+      // Nothing is lost: the part's communities, as their stage wrote them,
+      // become models of their own.
+      LOG(ERROR) << "Merging communities failed: " << error.what()
+                 << "; each of them is written as a model of its own.";
+      for (const int c : part_communities) {
+        std::shared_ptr<Reconstruction> model =
+            left_model(c, /*model=*/nullptr);
+        if (model->NumRegImages() >= 2) {
+          keep_model(std::move(model));
+        }
+      }
+    }
+  }
+
+  // A community that left the merge keeps the images nobody registered as
+  // a model of its own, if there are as many as the incremental mapper
+  // keeps in a model (Mapper.min_model_size): it was in doubt or small.
+  for (const int c : set_aside_communities) {
+    std::shared_ptr<Reconstruction> model = left_model(c, /*model=*/nullptr);
+    if (static_cast<int>(model->NumRegImages()) >=
+        options.incremental_options.min_model_size) {
+      LOG(INFO) << StringPrintf(
+          "Community %d left the merge: %d of its images that no merged model "
+          "registered keep its model, as a model of its own",
+          c,
+          static_cast<int>(model->NumRegImages()));
+      keep_model(std::move(model));
+    }
+  }
+
+  return merged_models;
+}
+
+}  // namespace
+
+bool CommunityMergeOptions::Check() const {
+  CHECK_OPTION_GT(min_num_matches, 0);
+  CHECK_OPTION(pairwise_similarity.Check());
+  CHECK_OPTION(covisibility_check.Check());
+  CHECK_OPTION_GE(rejected_link_max_drift_factor, 1.0);
+  CHECK_OPTION(judgement.Check());
+  CHECK_OPTION(similarity_averaging.Check());
+  CHECK_OPTION(refinement.Check());
+  CHECK_OPTION(incremental_options.Check());
+  return true;
+}
+
+CommunityMergeResult MergeCommunities(const CommunityMergeOptions& options,
+                                      const CommunityPlan& plan,
+                                      const CommunityWorkspace& workspace) {
+  THROW_CHECK(options.Check());
+  // The merge gives the same model from the same community models, whatever
+  // ran them and whichever thread merges.
+  SetPRNGSeed(kDefaultPRNGSeed);
+  CommunityMergeResult result;
+  Timer timer;
+  timer.Start();
+
+  // One connection for the view graph and the cross edges' matches.
+  const Database database(options.database_path);
+  const ViewGraph view_graph =
+      ViewGraph::Read(database, options.min_num_matches, options.image_names);
+  result.num_view_graph_images = static_cast<int>(view_graph.NumVertices());
+  result.num_view_graph_edges = static_cast<int>(view_graph.NumEdges());
+  CommunityImages communities = GroupImagesByCommunity(view_graph, plan);
+  result.community_of_image = communities.community_of_image;
+
+  // The communities, as their stage left them on disk: the plan's, then the
+  // extra ones.
+  Models models;
+  std::vector<std::string> model_paths;
+  ReadCommunityModels(options,
+                      workspace,
+                      plan.NumCommunities(),
+                      &communities,
+                      &models,
+                      &model_paths,
+                      &result);
+  LogMemory("reading the community models");
+
+  const CrossEdges cross_edges =
+      GroupCrossEdges(view_graph, communities.community_of_image);
+  result.num_community_pairs = static_cast<int>(cross_edges.size());
+  const CommunitySimilarities community_similarities =
+      EstimateCommunitySimilarities(
+          database,
+          view_graph,
+          cross_edges,
+          std::vector<std::shared_ptr<const Reconstruction>>(models.begin(),
+                                                             models.end()),
+          options.pairwise_similarity,
+          options.covisibility_check,
+          options.incremental_options.num_threads);
+  const SimilarityAveragingResult averaging =
+      JudgeAndAverage(options, community_similarities, &result);
+  const std::vector<RelativeSimilarity>& similarities =
+      community_similarities.similarities;
+  const std::unordered_set<image_pair_t> false_pairs =
+      FalsePairsAfterTheMerge(options, community_similarities, averaging);
+  if (!false_pairs.empty()) {
+    LOG(INFO) << StringPrintf(
+        "%d image pairs between communities support only rejected "
+        "transforms: the refinement leaves them out.",
+        static_cast<int>(false_pairs.size()));
+  }
+  // Communities that left the merge but whose models are not broken: the
+  // images the merged models do not register keep their community's model,
+  // as a model of its own (the incremental mapper too writes the models it
+  // could not join). Read again from the workspace at the end.
+  std::vector<int> unconfirmed_communities;
+  const std::vector<int> set_aside_communities = SetAsideExcludedCommunities(
+      similarities, averaging, &models, &unconfirmed_communities, &result);
+  result.averaging_seconds = timer.ElapsedSeconds();
+  LOG(INFO) << StringPrintf("Similarity averaging: %.3fs (%s)",
+                            result.averaging_seconds,
+                            ProcessMemoryToString(ReadProcessMemory()).c_str());
+
+  PrintHeading1("4. Merging the communities and bundle adjustment");
+  timer.Restart();
+  std::vector<bool> has_model(models.size());
+  for (size_t c = 0; c < models.size(); ++c) {
+    has_model[c] = models[c] != nullptr;
+  }
+  result.models = MergeParts(options,
+                             communities,
+                             similarities,
+                             averaging,
+                             PlanPartOffers(averaging.part_of_community,
+                                            has_model,
+                                            cross_edges,
+                                            unconfirmed_communities),
+                             set_aside_communities,
+                             false_pairs,
+                             view_graph,
+                             model_paths,
+                             &models,
+                             &result.refinement_seconds);
+  std::stable_sort(result.models.begin(),
+                   result.models.end(),
+                   [](const std::shared_ptr<Reconstruction>& a,
+                      const std::shared_ptr<Reconstruction>& b) {
+                     return a->NumRegImages() > b->NumRegImages();
+                   });
+  // The merge (joining the models, merging their points, loading the
+  // correspondences, colours) and the refinement (with the registration of
+  // left-over images, track completion and filtering) are reported apart.
+  result.merge_seconds = timer.ElapsedSeconds() - result.refinement_seconds;
+  LOG(INFO) << StringPrintf("Merge: %.3fs, final bundle adjustment: %.3fs (%s)",
+                            result.merge_seconds,
+                            result.refinement_seconds,
+                            ProcessMemoryToString(ReadProcessMemory()).c_str());
+  return result;
+}
+
+}  // namespace colmap

@@ -1,0 +1,248 @@
+#include "colmap_ext/sfm/community_merge.h"
+
+#include "colmap_ext/graph/community_detection.h"
+#include "colmap_ext/graph/view_graph.h"
+#include "colmap_ext/scene/model_evaluation.h"
+#include "colmap_ext/scene/synthetic_scene.h"
+#include "colmap_ext/util/atomic_output.h"
+#include "colmap_ext/util/testing.h"
+
+#include "colmap/geometry/pose.h"
+#include "colmap/util/misc.h"
+
+#include <set>
+
+#include <gtest/gtest.h>
+
+namespace colmap {
+namespace {
+
+// The merge stage on community models cut from a generated loop's ground
+// truth, each in a frame of its own, as their stage would leave them in a
+// workspace: the plan from the view graph's communities, every community's
+// model (its own and borrowed images) and record.
+class MergeCommunitiesTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const std::string test_dir = CreateTestFolder();
+    SyntheticSceneOptions scene_options;
+    scene_options.num_clusters = 3;
+    scene_options.num_images_per_cluster = 24;
+    scene_options.num_images_per_link = 20;
+    scene_options.seed = 17;
+    options_.database_path = JoinPaths(test_dir, "database.db");
+    {
+      Database database(options_.database_path);
+      SynthesizeCommunityScene(scene_options, &scene_, &database);
+    }
+    options_.incremental_options.num_threads = 1;
+    workspace_ = std::make_unique<CommunityWorkspace>(
+        JoinPaths(test_dir, "out"));
+    CreateDirIfNotExists(workspace_->CommunitiesDir(), /*recursive=*/true);
+
+    const ViewGraph view_graph =
+        ViewGraph::Read(Database(options_.database_path),
+                        options_.min_num_matches);
+    const WeightedGraph graph =
+        view_graph.ToWeightedGraph(ViewGraphEdgeWeight::kUnit);
+    const CommunityPartition partition = DetectCommunities(
+        graph, GreedyModularityPartitioner(), CommunityDetectionOptions());
+    ASSERT_GE(partition.NumCommunities(), 3);
+    const std::vector<std::vector<int>> extended =
+        ExtendCommunities(graph, partition, /*num_overlap_images=*/3);
+    plan_.communities.resize(partition.NumCommunities());
+    community_images_.resize(partition.NumCommunities());
+    for (int c = 0; c < partition.NumCommunities(); ++c) {
+      for (const int vertex : extended[c]) {
+        const std::string& name = view_graph.ImageNames()[vertex];
+        (partition.membership[vertex] == c
+             ? plan_.communities[c].own_image_names
+             : plan_.communities[c].borrowed_image_names)
+            .push_back(name);
+        community_images_[c].insert(view_graph.ImageIds()[vertex]);
+      }
+    }
+  }
+
+  // Writes community c's model, cut from the ground truth and placed by
+  // `model_from_world`, and its record (its mean reprojection error
+  // `reprojection_error`, as its mapper would report it); its cameras and
+  // points moved by up to `perturbation_deg` if given.
+  void WriteCommunity(const int c,
+                      const Sim3d& model_from_world,
+                      const double reprojection_error,
+                      const double perturbation_deg = 0) {
+    Reconstruction model = CommunityModel(
+        scene_.ground_truth, community_images_[c], model_from_world);
+    if (perturbation_deg > 0) {
+      PerturbReconstruction(perturbation_deg,
+                            /*translation_fraction=*/1e-4,
+                            /*focal_length_factor=*/1.0,
+                            /*seed=*/c + 1,
+                            &model);
+    }
+    WriteReconstructionAtomically(model, workspace_->CommunityModelPath(c));
+    CommunityRecord record;
+    record.community_id = c;
+    record.num_images = static_cast<int>(community_images_[c].size());
+    record.num_registered = static_cast<int>(model.NumRegImages());
+    record.num_points = static_cast<int>(model.NumPoints3D());
+    record.num_models = 1;
+    record.mean_reprojection_error = reprojection_error;
+    WriteTextFileAtomically(CommunityRecordToText(record),
+                            workspace_->CommunityRecordPath(c));
+  }
+
+  // A similarity of its own for community c.
+  static Sim3d FrameOf(const int c) {
+    return Sim3d(0.5 + c,
+                 Eigen::Quaterniond(Eigen::AngleAxisd(
+                     0.4 * (c + 1), Eigen::Vector3d(1, 2, 3).normalized())),
+                 Eigen::Vector3d(10.0 * c, -5.0, 2.0 * c));
+  }
+
+  SyntheticScene scene_;
+  CommunityMergeOptions options_;
+  CommunityPlan plan_;
+  std::vector<std::set<image_t>> community_images_;
+  std::unique_ptr<CommunityWorkspace> workspace_;
+};
+
+TEST_F(MergeCommunitiesTest, CommunitiesInFramesOfTheirOwnMergeIntoOneModel) {
+  for (int c = 0; c < plan_.NumCommunities(); ++c) {
+    WriteCommunity(c, FrameOf(c), /*reprojection_error=*/0.5);
+  }
+  const CommunityMergeResult result =
+      MergeCommunities(options_, plan_, *workspace_);
+  ASSERT_EQ(result.models.size(), 1);
+  EXPECT_EQ(result.models[0]->NumRegImages(),
+            scene_.ground_truth.NumRegImages());
+  EXPECT_EQ(result.num_kept_similarities, result.num_estimated_similarities);
+  EXPECT_GE(result.num_kept_similarities, plan_.NumCommunities());
+  for (const bool excluded : result.community_excluded) {
+    EXPECT_FALSE(excluded);
+  }
+  const ModelEvaluation evaluation =
+      EvaluateModel(*result.models[0], scene_.ground_truth);
+  ASSERT_TRUE(evaluation.aligned);
+  EXPECT_LT(evaluation.median_position_error, 1e-3 * evaluation.extent);
+  EXPECT_LT(evaluation.median_rotation_error_deg, 0.1);
+}
+
+// A community whose mapper reports a reprojection error far above the
+// others' is broken: it leaves the merge, and the merged model registers
+// its images one by one, so that one model still holds every image.
+TEST_F(MergeCommunitiesTest, BrokenCommunityLeavesAndItsImagesAreRegistered) {
+  for (int c = 0; c < plan_.NumCommunities(); ++c) {
+    WriteCommunity(c, FrameOf(c), /*reprojection_error=*/c == 1 ? 5.0 : 0.5);
+  }
+  const CommunityMergeResult result =
+      MergeCommunities(options_, plan_, *workspace_);
+  ASSERT_EQ(result.community_judgements.size(), plan_.NumCommunities());
+  EXPECT_TRUE(result.community_judgements[1].broken);
+  EXPECT_TRUE(result.community_excluded[1]);
+  EXPECT_FALSE(result.community_excluded[0]);
+  ASSERT_EQ(result.models.size(), 1);
+  EXPECT_EQ(result.models[0]->NumRegImages(),
+            scene_.ground_truth.NumRegImages());
+  const ModelEvaluation evaluation =
+      EvaluateModel(*result.models[0], scene_.ground_truth);
+  ASSERT_TRUE(evaluation.aligned);
+  EXPECT_LT(evaluation.median_position_error, 0.01 * evaluation.extent);
+}
+
+// Communities that share no kept similarity are written as models apart,
+// no image in two of them.
+TEST_F(MergeCommunitiesTest, PartsWithoutALinkStayApart) {
+  for (int c = 0; c < plan_.NumCommunities(); ++c) {
+    WriteCommunity(c, FrameOf(c), /*reprojection_error=*/0.5);
+  }
+  // No similarity has enough inliers.
+  options_.pairwise_similarity.min_num_inliers = 1000000;
+  options_.refinement.register_remaining_images = false;
+  const CommunityMergeResult result =
+      MergeCommunities(options_, plan_, *workspace_);
+  EXPECT_EQ(result.num_kept_similarities, 0);
+  ASSERT_EQ(result.models.size(), plan_.NumCommunities());
+  std::set<image_t> seen;
+  for (const auto& model : result.models) {
+    for (const image_t image_id : model->RegImageIds()) {
+      EXPECT_TRUE(seen.insert(image_id).second) << image_id;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace colmap
+
+namespace colmap {
+namespace {
+
+// A community that leaves the merge (here: every link rejected, every
+// community counted small) keeps the images that no merged model registered
+// (here: none is tried) as a model of its own, as colmap mapper writes the
+// models it cannot join: every image in exactly one model.
+TEST_F(MergeCommunitiesTest, LeftCommunitiesKeepTheirImagesAsModels) {
+  // Each a little off, so that no link is within the bounds.
+  for (int c = 0; c < plan_.NumCommunities(); ++c) {
+    WriteCommunity(c,
+                   FrameOf(c),
+                   /*reprojection_error=*/0.5,
+                   /*perturbation_deg=*/0.01);
+  }
+  options_.similarity_averaging.max_rotation_residual_deg = 1e-9;
+  options_.similarity_averaging.min_relative_size = 10;
+  options_.refinement.register_remaining_images = false;
+  const CommunityMergeResult result =
+      MergeCommunities(options_, plan_, *workspace_);
+  int num_excluded = 0;
+  for (const bool excluded : result.community_excluded) {
+    num_excluded += excluded ? 1 : 0;
+  }
+  EXPECT_GE(num_excluded, 1);
+  EXPECT_GE(result.models.size(), 2);
+  std::set<image_t> seen;
+  for (const auto& model : result.models) {
+    for (const image_t image_id : model->RegImageIds()) {
+      EXPECT_TRUE(seen.insert(image_id).second) << image_id << " twice";
+    }
+    const ModelEvaluation evaluation =
+        EvaluateModel(*model, scene_.ground_truth);
+    ASSERT_TRUE(evaluation.aligned);
+    EXPECT_LT(evaluation.median_position_error, 1e-2 * evaluation.extent);
+  }
+  EXPECT_EQ(seen.size(), scene_.ground_truth.NumRegImages());
+}
+
+// The refinement's bundle adjustment rounds on a selected subset of the
+// tracks (forced here: the generated scene is too sparse for the default
+// rule to choose it), the last one over all observations: one model, as
+// accurate as with every round over all observations.
+TEST_F(MergeCommunitiesTest, ReducedAdjustmentIsAsAccurate) {
+  for (int c = 0; c < plan_.NumCommunities(); ++c) {
+    WriteCommunity(c, FrameOf(c), /*reprojection_error=*/0.5);
+  }
+  options_.refinement.reduced_adjustment = false;
+  const CommunityMergeResult full =
+      MergeCommunities(options_, plan_, *workspace_);
+  options_.refinement.reduced_adjustment = true;
+  options_.refinement.max_selected_observation_fraction = 1;
+  options_.refinement.track_selection.min_tracks_per_image = 50;
+  const CommunityMergeResult reduced =
+      MergeCommunities(options_, plan_, *workspace_);
+  ASSERT_EQ(full.models.size(), 1);
+  ASSERT_EQ(reduced.models.size(), 1);
+  EXPECT_EQ(reduced.models[0]->NumRegImages(), full.models[0]->NumRegImages());
+  const ModelEvaluation full_evaluation =
+      EvaluateModel(*full.models[0], scene_.ground_truth);
+  const ModelEvaluation reduced_evaluation =
+      EvaluateModel(*reduced.models[0], scene_.ground_truth);
+  ASSERT_TRUE(full_evaluation.aligned);
+  ASSERT_TRUE(reduced_evaluation.aligned);
+  EXPECT_LT(reduced_evaluation.median_position_error,
+            1.2 * full_evaluation.median_position_error +
+                1e-5 * full_evaluation.extent);
+}
+
+}  // namespace
+}  // namespace colmap

@@ -1,0 +1,95 @@
+#include "colmap_ext/util/output_lock.h"
+
+#include "colmap_ext/util/atomic_output.h"
+
+#include "colmap/util/logging.h"
+#include "colmap/util/misc.h"
+
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+namespace colmap {
+namespace {
+
+// Creates `path` holding `text` only if it does not exist; false if it does.
+bool CreateExclusively(const std::string& path, const std::string& text) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644);
+  if (fd < 0) {
+    THROW_CHECK_EQ(errno, EEXIST)
+        << "cannot create " << path << ": " << std::strerror(errno);
+    return false;
+  }
+  const bool written =
+      ::write(fd, text.data(), text.size()) ==
+      static_cast<ssize_t>(text.size());
+  ::close(fd);
+  THROW_CHECK(written) << "cannot write " << path;
+  return true;
+}
+
+std::string ReadHolder(const std::string& path) {
+  std::ifstream file(path);
+  std::string holder;
+  std::getline(file, holder);
+  return holder;
+}
+
+// "process PID on host HOST" of a HOST-PID tag.
+std::string HolderText(const std::string& holder) {
+  const size_t dash = holder.rfind('-');
+  if (dash == std::string::npos) {
+    return "an unknown process";
+  }
+  return "process " + holder.substr(dash + 1) + " on host " +
+         holder.substr(0, dash);
+}
+
+}  // namespace
+
+OutputLock::~OutputLock() { Release(); }
+
+std::string OutputLock::Acquire(const std::string& folder) {
+  THROW_CHECK(path_.empty()) << "the lock is held already";
+  const std::string path = JoinPaths(folder, kOutputLockFileName);
+  const std::string tag = WriterTag();
+  // Twice at most: once more after taking over an ended holder's lock.
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    if (CreateExclusively(path, tag + "\n")) {
+      path_ = path;
+      return "";
+    }
+    const std::string holder = ReadHolder(path);
+    if (holder.empty() || !IsEndedWriterOfThisHost(holder)) {
+      return "Another run is writing " + folder + ": " + HolderText(holder) +
+             " holds " + path +
+             ". Wait for it to end, or choose another --output_path. If "
+             "that process no longer runs (e.g. it ran on another machine "
+             "and was killed), delete " +
+             path + " and run again.";
+    }
+    LOG(WARNING) << "Taking over the lock " << path << " of the run of "
+                 << HolderText(holder) << ", which has ended.";
+    // Only the file of that ended holder goes: another run may have taken
+    // it over in between.
+    if (ReadHolder(path) == holder) {
+      std::remove(path.c_str());
+    }
+  }
+  return "Could not take the lock " + path + ": another run took it.";
+}
+
+void OutputLock::Release() {
+  if (path_.empty()) {
+    return;
+  }
+  if (ReadHolder(path_) == WriterTag()) {
+    std::remove(path_.c_str());
+  }
+  path_.clear();
+}
+
+}  // namespace colmap
