@@ -128,7 +128,7 @@ bool CommunityMapperController::Options::Check() const {
                      community_ba_global_ratio,
                      "greater than 1, or -1 for --Mapper.ba_global_images_ratio "
                      "and --Mapper.ba_global_points_ratio");
-  return valid && MergeOptions().Check() && incremental_options.Check();
+  return valid && MergeOptions().Check();  // With incremental_options'.
 }
 
 CommunityMapperController::CommunityMapperController(
@@ -452,7 +452,7 @@ bool CommunityMapperController::Merge() {
   if (!LoadPlan() || !CheckAllReconstructed()) {
     return false;
   }
-  PrintHeading1("3. Pairwise similarities and global similarity averaging");
+  PrintHeading1("3. Merging the communities");
   CommunityMergeResult result =
       MergeCommunities(options_.MergeOptions(), plan_, workspace_);
   summary_.num_view_graph_images = result.num_view_graph_images;
@@ -588,7 +588,7 @@ bool CommunityMapperController::RunAllStages() {
   }
 
   //////////////////////////////////////////////////////////////////////////////
-  // 3-4. Similarities, their averaging, the merge and its refinement
+  // 3. Similarities, their averaging, the merge and its refinement
   //////////////////////////////////////////////////////////////////////////////
 
   const bool merged = Merge();

@@ -80,10 +80,6 @@ bool PrepareWorkspace(const CommunityMapperCommand& command,
   return true;
 }
 
-}  // namespace
-
-namespace {
-
 // The controller's options of `command`, checked and with the image list
 // read; false (with the reasons logged) if they cannot be used.
 bool ControllerOptions(const CommunityMapperCommand& command,
@@ -116,13 +112,14 @@ bool ControllerOptions(const CommunityMapperCommand& command,
 }
 
 // Runs the stage's controller; false if it failed (logged).
-bool RunController(const CommunityMapperCommand& command,
-                   const CommunityMapperController::Options& options,
-                   ReconstructionManager* models,
-                   CommunityMapperController::Summary* summary) {
+bool RunController(
+    const CommunityMapperCommand& command,
+    const CommunityMapperController::Options& options,
+    std::shared_ptr<ReconstructionManager> reconstruction_manager,
+    CommunityMapperController::Summary* summary) {
   try {
-    auto reconstruction_manager = std::make_shared<ReconstructionManager>();
-    CommunityMapperController controller(options, reconstruction_manager);
+    CommunityMapperController controller(options,
+                                         std::move(reconstruction_manager));
     bool success = true;
     switch (command.stage) {
       case CommunityMapperStage::kAll:
@@ -142,7 +139,6 @@ bool RunController(const CommunityMapperCommand& command,
         success = controller.Merge();
         break;
     }
-    *models = *reconstruction_manager;
     *summary = controller.GetSummary();
     return success;
   } catch (const std::exception& error) {
@@ -206,14 +202,14 @@ bool RunCommunityMapperImpl(const CommunityMapperCommand& command) {
       command.stage == CommunityMapperStage::kMerge) {
     CheckImagePath(options.image_path);
   }
-  ReconstructionManager models;
+  auto models = std::make_shared<ReconstructionManager>();
   CommunityMapperController::Summary summary;
-  if (!RunController(command, options, &models, &summary)) {
+  if (!RunController(command, options, models, &summary)) {
     return false;
   }
   std::vector<std::string> outputs;
   try {
-    outputs = WriteOutputs(command, workspace, models, summary);
+    outputs = WriteOutputs(command, workspace, *models, summary);
   } catch (const std::exception& error) {
     LOG(ERROR) << "Writing to " << workspace.OutputPath()
                << " failed: " << error.what()

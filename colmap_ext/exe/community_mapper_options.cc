@@ -244,7 +244,7 @@ std::string CommunityMapperOptionsMarkdown() {
 
 std::string PlanOptionsFromIni(const std::string& project_ini) {
   const std::vector<std::string> plan_keys = CommunityMapperPlanKeys();
-  const std::set<std::string> kCommunityMapperKeys(plan_keys.begin(),
+  const std::set<std::string> community_mapper_keys(plan_keys.begin(),
                                                     plan_keys.end());
   static const std::set<std::string> kIgnoredMapperKeys = {
       "num_threads", "snapshot_path", "snapshot_images_freq"};
@@ -263,7 +263,7 @@ std::string PlanOptionsFromIni(const std::string& project_ini) {
     }
     const std::string key = line.substr(0, equals);
     if ((section == "Mapper" && kIgnoredMapperKeys.count(key) == 0) ||
-        (section == "CommunityMapper" && kCommunityMapperKeys.count(key))) {
+        (section == "CommunityMapper" && community_mapper_keys.count(key))) {
       plan_options += section + "." + line + "\n";
     }
   }

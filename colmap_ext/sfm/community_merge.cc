@@ -722,6 +722,7 @@ CommunityMergeResult MergeCommunities(const CommunityMergeOptions& options,
   // ran them and whichever thread merges.
   SetPRNGSeed(kDefaultPRNGSeed);
   CommunityMergeResult result;
+  PrintHeading2("Pairwise similarities and their averaging");
   Timer timer;
   timer.Start();
 
@@ -784,7 +785,7 @@ CommunityMergeResult MergeCommunities(const CommunityMergeOptions& options,
                             result.averaging_seconds,
                             ProcessMemoryToString(ReadProcessMemory()).c_str());
 
-  PrintHeading1("4. Merging the communities and bundle adjustment");
+  PrintHeading2("Joining the communities and bundle adjustment");
   timer.Restart();
   std::vector<bool> has_model(models.size());
   for (size_t c = 0; c < models.size(); ++c) {

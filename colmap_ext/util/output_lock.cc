@@ -6,6 +6,7 @@
 #include "colmap/util/misc.h"
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 
@@ -15,20 +16,28 @@
 namespace colmap {
 namespace {
 
-// Creates `path` holding `text` only if it does not exist; false if it does.
-bool CreateExclusively(const std::string& path, const std::string& text) {
+// Creates `path` holding `text` only if it does not exist. False if it
+// exists, or if it cannot be written (then `error` says why and nothing is
+// left behind).
+bool CreateExclusively(const std::string& path,
+                       const std::string& text,
+                       std::string* error) {
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644);
   if (fd < 0) {
-    THROW_CHECK_EQ(errno, EEXIST)
-        << "cannot create " << path << ": " << std::strerror(errno);
+    if (errno != EEXIST) {
+      *error = "Cannot create " + path + ": " + std::strerror(errno) + ".";
+    }
     return false;
   }
   const bool written =
       ::write(fd, text.data(), text.size()) ==
       static_cast<ssize_t>(text.size());
   ::close(fd);
-  THROW_CHECK(written) << "cannot write " << path;
-  return true;
+  if (!written) {
+    std::remove(path.c_str());
+    *error = "Cannot write " + path + ": check the free space.";
+  }
+  return written;
 }
 
 std::string ReadHolder(const std::string& path) {
@@ -58,9 +67,13 @@ std::string OutputLock::Acquire(const std::string& folder) {
   const std::string tag = WriterTag();
   // Twice at most: once more after taking over an ended holder's lock.
   for (int attempt = 0; attempt < 2; ++attempt) {
-    if (CreateExclusively(path, tag + "\n")) {
+    std::string error;
+    if (CreateExclusively(path, tag + "\n", &error)) {
       path_ = path;
       return "";
+    }
+    if (!error.empty()) {
+      return error;
     }
     const std::string holder = ReadHolder(path);
     if (holder.empty() || !IsEndedWriterOfThisHost(holder)) {
