@@ -4,7 +4,8 @@
 photographs.
 
     scripts/benchmark.py [--quick] [--out OUT] [--methods M,...]
-                         [--seeds S,...] [--doc PATH] [SCENE ...]
+                         [--seeds S,...] [--draws N] [--reuse M,...]
+                         [--doc PATH] [SCENE ...]
 
 Scenes (default: small medium):
   generated, with exact ground truth (build/scene_generator):
@@ -91,6 +92,14 @@ per method and seed, each compared with the mapper of the same seed, and a
 line per scene gives each method's median over the seeds with its range and
 on how many seeds the bar's checks held.
 
+`--draws N robustness` runs every robustness family (loop, chain and dense,
+each `_clean` and `_noisy`: FAMILIES below) as N draws, scene seeds 1..N,
+and gives one table: community_mapper against the mapper on every draw, and
+per family on how many draws it had one model where the mapper has one,
+every image the mapper registers, a median error at most 1.5x and no worse
+than the mapper's. `--reuse mapper` takes the mapper's runs recorded in OUT
+by an earlier run (OUT/SCENE/mapper.json) instead of running it again.
+
 `--doc docs/benchmark.md` also writes the Markdown results into that file,
 as a section headed by the scenes' names, with the command line that
 produced them in a fenced block under the heading: a section of the file
@@ -101,6 +110,7 @@ delimited by `## ` headings.
 
 import argparse
 import csv
+import json
 import os
 import random
 import re
@@ -146,6 +156,23 @@ SCENES = {
                   num_images_per_link=40, close_loop=1,
                   max_viewing_distance=90, seed=4),
 }
+# The robustness families: each kind of generated scene small enough to be
+# drawn many times (--draws), clean and with noisy matches.
+CLEAN = dict(outlier_match_ratio=0, num_false_pairs=0)
+NOISY = dict(outlier_match_ratio=0.03, num_false_pairs=30)
+FAMILIES = {
+    "loop": dict(num_clusters=3, num_images_per_cluster=40,
+                 num_images_per_link=30, close_loop=1),
+    "chain": dict(num_clusters=4, num_images_per_cluster=30,
+                  num_images_per_link=25, close_loop=0, single_camera=0,
+                  focal_length_noise=0.05, keypoint_noise=1.0),
+    "dense": dict(num_clusters=3, num_images_per_cluster=50,
+                  num_images_per_link=25, close_loop=1,
+                  max_viewing_distance=90),
+}
+for family, knobs in FAMILIES.items():
+    SCENES[family + "_clean"] = dict(knobs, **CLEAN)
+    SCENES[family + "_noisy"] = dict(knobs, **NOISY)
 # Realism shared by all generated scenes (a scene's own knobs win).
 COMMON = dict(keypoint_noise=0.7, outlier_match_ratio=0.05,
               num_false_pairs=20, seed=3)
@@ -219,6 +246,8 @@ GROUPS = {
     "sb_subsets": list(SUBSETS),
     "sb_sequences": ["sbseq5", "sbseq10", "sbseq20"],
     "strecha_split": ["castle_split", "herzjesu_split"],
+    "robustness": [family + suffix for family in FAMILIES
+                   for suffix in ("_clean", "_noisy")],
 }
 
 METHODS = ["mapper", "community", "hierarchical", "hier_fair"]
@@ -529,7 +558,7 @@ def prepare_sequence_scene(name, out_dir):
     return (sequence, images, ground_truth, num_images, knobs)
 
 
-def run_scene(name, out_dir, threads, methods, seeds):
+def run_scene(name, out_dir, threads, methods, seeds, reuse):
     if SEQUENCE_PATTERN.match(name):
         database, images, ground_truth, num_images, knobs = \
             prepare_sequence_scene(name, out_dir)
@@ -549,18 +578,24 @@ def run_scene(name, out_dir, threads, methods, seeds):
         if len(seeds) > 1:
             log(f"   seed {seed}:")
         rows += run_methods(name, scene_dir, database, images, ground_truth,
-                            num_images, threads, methods, seed)
+                            num_images, threads, methods, seed, reuse)
     return rows, knobs
 
 
 def run_methods(name, scene_dir, database, images, ground_truth, num_images,
-                threads, methods, seed):
+                threads, methods, seed, reuse):
     """Runs every method once on the prepared scene, with the PRNG seed;
-    returns a row of figures per method."""
+    returns a row of figures per method. A method in `reuse` whose earlier
+    run on the scene is recorded (SCENE_DIR/METHOD.json) is not run again."""
     results = {}
     leaf_size = None
     for method in methods:
         run_dir = os.path.join(scene_dir, method)
+        record = os.path.join(scene_dir, method + ".json")
+        if method in reuse and os.path.exists(record):
+            results[method] = json.load(open(record))
+            log(f"   {LABELS[method]}: the earlier run in {run_dir}")
+            continue
         shutil.rmtree(run_dir, ignore_errors=True)
         os.makedirs(run_dir)
         common = ["--database_path", database, "--image_path", images,
@@ -609,6 +644,8 @@ def run_methods(name, scene_dir, database, images, ground_truth, num_images,
             if sizes:
                 leaf_size = int(statistics.median(sizes.values()))
             row["median_community_size"] = leaf_size or 0
+        with open(record, "w") as file:
+            json.dump(row, file)
         log(f"   -> {wall:.1f}s, {row['registered']}/{num_images} images in "
             f"{row['models']} model(s), median error "
             f"{row['median_pos_err']:.4f}")
@@ -793,6 +830,53 @@ def markdown(rows, scene_knobs, seeds):
     first_rows = [row for row in rows if row["seed"] == seeds[0]]
     lines += scaling(first_rows, scene_knobs)
     return "\n".join(lines)
+
+
+def robustness_section(rows, families, draws):
+    """community_mapper against colmap mapper on every draw of every family
+    (the scenes FAMILY_sDRAW): a row per draw, a line per family with on
+    how many draws the bar held, and the bar over all draws."""
+    lines = ["| family | draw | images | mapper: models, registered, "
+             "median error | community_mapper: models, registered, median "
+             "error | error / mapper | time / mapper |", "|" + "---|" * 7]
+    summary = []
+    totals = [0, 0, 0, 0, 0]
+    for family in families:
+        checks = [0, 0, 0, 0, 0]
+        for draw in draws:
+            scene = f"{family}_s{draw}"
+            by_method = {row["method"]: row for row in rows
+                         if row["scene"] == scene}
+            if "mapper" not in by_method or "community" not in by_method:
+                continue
+            mapper, community = by_method["mapper"], by_method["community"]
+            error_ratio = community["median_pos_err"] / \
+                max(mapper["median_pos_err"], 1e-12)
+            lines.append(
+                f"| {family} | {draw} | {mapper['images']} | "
+                f"{mapper['models']}, {mapper['registered']}, "
+                f"{mapper['median_pos_err']:.4f} | {community['models']}, "
+                f"{community['registered']}, "
+                f"{community['median_pos_err']:.4f} | {error_ratio:.2f} | "
+                f"{ratio(community['time_vs_mapper'], 2)} |")
+            held = [community["models"] == 1 or mapper["models"] > 1,
+                    community["registered"] >= mapper["registered"],
+                    error_ratio <= 1.5, error_ratio <= 1.0, True]
+            checks = [count + passed for count, passed in zip(checks, held)]
+        totals = [total + count for total, count in zip(totals, checks)]
+        summary.append(f"- `{family}`: " + robustness_text(checks))
+    return (lines + ["", "On how many draws (bar: every draw, the last "
+                     "check on at least 80% of them):", ""] + summary +
+            [f"- all families: " + robustness_text(totals), ""])
+
+
+def robustness_text(checks):
+    """The counts of robustness_section's checks as text."""
+    one_model, registered, within, no_worse, num_draws = checks
+    return (f"one model where the mapper has one {one_model}/{num_draws}; "
+            f"every image the mapper registers {registered}/{num_draws}; "
+            f"median error at most 1.5x the mapper's {within}/{num_draws}; "
+            f"no worse than the mapper's {no_worse}/{num_draws}")
 
 
 def command_line(argv):
@@ -1027,6 +1111,15 @@ def main():
                         "(e.g. docs/benchmark.md) as a section headed by "
                         "the scenes and this command line, replacing the "
                         "section of the same command line if there is one")
+    parser.add_argument("--draws", type=int, default=0, metavar="N",
+                        help="run every generated scene named as N draws, "
+                        "NAME_s1 ... NAME_sN, and give the robustness table "
+                        "(community_mapper against mapper on every draw) "
+                        "instead of a table per scene")
+    parser.add_argument("--reuse", default="", metavar="M,...",
+                        help="methods whose earlier runs on a scene, "
+                        "recorded in OUT, are taken instead of run again "
+                        "(e.g. mapper, while community_mapper changes)")
     arguments = parser.parse_args()
     if arguments.doc and not os.path.isdir(
             os.path.dirname(os.path.abspath(arguments.doc))):
@@ -1038,13 +1131,17 @@ def main():
     if "community" not in methods:
         methods.append("community")
     methods = [method for method in METHODS if method in methods]
+    reuse = [method for method in arguments.reuse.split(",") if method]
+    for method in reuse:
+        if method not in METHODS:
+            parser.error(f"--reuse: unknown method {method}")
     try:
         seeds = [int(seed) for seed in arguments.seeds.split(",")]
     except ValueError:
         parser.error(f"--seeds {arguments.seeds}: give integers, e.g. 0,1,2")
     if len(set(seeds)) != len(seeds) or min(seeds) < 0:
         parser.error(f"--seeds {arguments.seeds}: give distinct seeds >= 0")
-    scenes = []
+    scenes, families = [], []
     default_scenes = [] if arguments.partition_graph else ["small", "medium"]
     for scene in (["quick"] if arguments.quick else
                   (arguments.scenes or default_scenes)):
@@ -1062,7 +1159,14 @@ def main():
                     f"{os.path.join(SHARED_DATA, REAL[photos]['path'])} is "
                     f"absent")
                 continue
-            if member not in scenes:
+            if arguments.draws > 0:
+                if member not in SCENES:
+                    parser.error(f"--draws: {member} is not a generated "
+                                 "scene")
+                families.append(member)
+                scenes += [f"{member}_s{draw}"
+                           for draw in range(1, arguments.draws + 1)]
+            elif member not in scenes:
                 scenes.append(member)
     for binary in (COLMAP, SCENE_GENERATOR, MODEL_EVALUATOR):
         if not os.path.exists(binary):
@@ -1073,7 +1177,7 @@ def main():
     scene_knobs = {}
     for scene in scenes:
         scene_rows, knobs = run_scene(scene, arguments.out, arguments.threads,
-                                      methods, seeds)
+                                      methods, seeds, reuse)
         rows += scene_rows
         scene_knobs[scene] = knobs
 
@@ -1085,7 +1189,11 @@ def main():
         writer = csv.DictWriter(file, fieldnames=fields)
         writer.writeheader()
         writer.writerows(rows)
-    table = markdown(rows, scene_knobs, seeds) if rows else ""
+    if families:
+        table = "\n".join(robustness_section(
+            rows, families, range(1, arguments.draws + 1)))
+    else:
+        table = markdown(rows, scene_knobs, seeds) if rows else ""
     if arguments.partition_graph > 0:
         table += partition_graph_section(arguments.partition_graph)
     command = command_line(sys.argv)
@@ -1094,9 +1202,9 @@ def main():
                    "\n```\n\n" + table + "\n")
     if arguments.doc:
         write_doc_section(arguments.doc, command,
-                          doc_section(scenes, command, table))
+                          doc_section(families or scenes, command, table))
     plotted = False
-    if rows:
+    if rows and not families:
         try:
             plot([row for row in rows if row["seed"] == seeds[0]],
                  scene_knobs, arguments.out)

@@ -1,7 +1,5 @@
 #include "colmap_ext/sfm/community_alignment.h"
 
-#include "colmap_ext/util/union_find.h"
-
 #include "colmap/math/random.h"
 #include "colmap/util/logging.h"
 #include "colmap/util/misc.h"
@@ -12,9 +10,6 @@
 #include <mutex>
 #include <set>
 #include <string>
-
-#include <Eigen/SparseCholesky>
-#include <Eigen/SparseCore>
 
 namespace colmap {
 
@@ -337,108 +332,6 @@ CommunitySimilarities EstimateCommunitySimilarities(
     }
   }
   return result;
-}
-
-namespace {
-
-// The effective resistance between communities c1 and c2 in the graph of
-// the kept edges, each a unit resistance: with c2 grounded, the potential
-// at c1 when a unit current enters there (L x = e_c1 over the communities
-// the kept edges connect to c1). 1 if they do not connect them (the bounds
-// then stay as they are).
-double EffectiveResistance(const std::vector<RelativeSimilarity>& similarities,
-                           const SimilarityAveragingResult& averaging,
-                           const int c1,
-                           const int c2) {
-  std::vector<std::pair<int, int>> kept_edges;
-  for (size_t e = 0; e < similarities.size(); ++e) {
-    if (averaging.edges[e].kept) {
-      kept_edges.emplace_back(similarities[e].community1,
-                              similarities[e].community2);
-    }
-  }
-  const std::vector<int> labels = ConnectedComponentLabels(
-      static_cast<int>(averaging.part_of_community.size()), kept_edges);
-  if (labels[c1] != labels[c2]) {
-    return 1.0;
-  }
-  std::map<int, int> index;  // Community -> row, c2 grounded (no row).
-  for (size_t c = 0; c < labels.size(); ++c) {
-    if (labels[c] == labels[c1] && static_cast<int>(c) != c2) {
-      index.emplace(static_cast<int>(c), static_cast<int>(index.size()));
-    }
-  }
-  std::vector<Eigen::Triplet<double>> triplets;
-  for (const std::pair<int, int>& edge : kept_edges) {
-    if (labels[edge.first] != labels[c1]) {
-      continue;
-    }
-    const auto it1 = index.find(edge.first);
-    const auto it2 = index.find(edge.second);
-    if (it1 != index.end()) {
-      triplets.emplace_back(it1->second, it1->second, 1.0);
-    }
-    if (it2 != index.end()) {
-      triplets.emplace_back(it2->second, it2->second, 1.0);
-    }
-    if (it1 != index.end() && it2 != index.end()) {
-      triplets.emplace_back(it1->second, it2->second, -1.0);
-      triplets.emplace_back(it2->second, it1->second, -1.0);
-    }
-  }
-  const int n = static_cast<int>(index.size());
-  Eigen::SparseMatrix<double> laplacian(n, n);
-  laplacian.setFromTriplets(triplets.begin(), triplets.end());
-  // Connected and grounded: positive definite.
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(laplacian);
-  Eigen::VectorXd current = Eigen::VectorXd::Zero(n);
-  current(index.at(c1)) = 1.0;
-  const Eigen::VectorXd potential = solver.solve(current);
-  const double resistance = potential(index.at(c1));
-  return solver.info() == Eigen::Success && std::isfinite(resistance)
-             ? resistance
-             : 1.0;
-}
-
-}  // namespace
-
-double MergeResiduals::DriftFactor(const double max_drift_factor) const {
-  return std::min(std::max(1.0, std::sqrt(path_resistance)),
-                  std::max(1.0, max_drift_factor));
-}
-
-bool MergeResiduals::WithinBounds(const SimilarityAveragingOptions& bounds,
-                                  const double max_drift_factor) const {
-  if (!joined) {
-    return false;
-  }
-  const double factor = DriftFactor(max_drift_factor);
-  SimilarityAveragingOptions scaled = bounds;
-  scaled.max_rotation_residual_deg *= factor;
-  scaled.max_relative_translation_residual *= factor;
-  return EdgeWithinBounds(report, scaled);
-}
-
-MergeResiduals ResidualsAgainstMerge(
-    const RejectedSimilarity& rejected,
-    const std::vector<RelativeSimilarity>& similarities,
-    const SimilarityAveragingResult& averaging) {
-  const int c1 = rejected.similarity.community1;
-  const int c2 = rejected.similarity.community2;
-  THROW_CHECK_GE(std::min(c1, c2), 0);
-  THROW_CHECK_LT(std::max(c1, c2), averaging.part_of_community.size());
-  THROW_CHECK_EQ(similarities.size(), averaging.edges.size());
-  MergeResiduals residuals;
-  if (c1 == c2 || averaging.excluded[c1] || averaging.excluded[c2] ||
-      averaging.part_of_community[c1] != averaging.part_of_community[c2]) {
-    return residuals;
-  }
-  residuals.joined = true;
-  residuals.report =
-      ComputeEdgeResiduals(rejected.similarity, averaging.world_from_community);
-  residuals.path_resistance =
-      EffectiveResistance(similarities, averaging, c1, c2);
-  return residuals;
 }
 
 }  // namespace colmap

@@ -2,6 +2,7 @@
 
 #include "colmap_ext/graph/view_graph.h"
 #include "colmap_ext/sfm/community_alignment.h"
+#include "colmap_ext/sfm/link_confirmation.h"
 #include "colmap_ext/sfm/part_offers.h"
 #include "colmap_ext/util/process_memory.h"
 
@@ -251,7 +252,7 @@ std::shared_ptr<Reconstruction> MergePart(
   LogMemory("joining the models");
 
   // The correspondences, once the communities' models are released and
-  // the joined cameras aligned (RefineMergedModel).
+  // the joined cameras aligned (MergedModelRefiner).
   const auto load_correspondences = [&]() {
     std::shared_ptr<DatabaseCache> database_cache;
     {
@@ -282,12 +283,13 @@ std::shared_ptr<Reconstruction> MergePart(
   Timer timer;
   timer.Start();
   const MergedModelRefinementSummary refinement =
-      RefineMergedModel(options.refinement,
-                        options.incremental_options,
-                        load_correspondences,
-                        community_of_image,
-                        offered_models,
-                        merged);
+      MergedModelRefiner(options.refinement,
+                         options.incremental_options,
+                         load_correspondences,
+                         community_of_image,
+                         offered_models,
+                         merged)
+          .Run();
   *refinement_seconds += timer.ElapsedSeconds();
   LogMemory("the refinement");
   LOG(INFO) << StringPrintf(
@@ -409,55 +411,6 @@ SimilarityAveragingResult JudgeAndAverage(
                               : "dropped");
   }
   return averaging;
-}
-
-// The cross pairs of rejected transforms (community_alignment.h), but those
-// of the transforms the merge confirms (Options::confirm_rejected_links).
-std::unordered_set<image_pair_t> FalsePairsAfterTheMerge(
-    const CommunityMergeOptions& options,
-    const CommunitySimilarities& community_similarities,
-    const SimilarityAveragingResult& averaging) {
-  const std::vector<RelativeSimilarity>& similarities =
-      community_similarities.similarities;
-  std::unordered_set<image_pair_t> false_pairs =
-      community_similarities.false_pairs;
-  if (!options.confirm_rejected_links) {
-    return false_pairs;
-  }
-  for (const RejectedSimilarity& rejected :
-       community_similarities.rejected_similarities) {
-    const MergeResiduals residuals =
-        ResidualsAgainstMerge(rejected, similarities, averaging);
-    if (!residuals.joined) {
-      continue;  // Not joined through other links: nothing to confirm it.
-    }
-    const bool confirmed = residuals.WithinBounds(
-        options.similarity_averaging, options.rejected_link_max_drift_factor);
-    LOG(INFO) << StringPrintf(
-        "Communities %d-%d: the similarity the co-visibility check rejected "
-        "(%d inliers) against the merge: rotation %.3f deg, scale %.4f, "
-        "translation %.4f (links between them: resistance %.2f, bounds times "
-        "%.2f) -> %s",
-        rejected.similarity.community1,
-        rejected.similarity.community2,
-        static_cast<int>(rejected.similarity.points1.size()),
-        residuals.report.rotation_residual_deg,
-        residuals.report.log_scale_residual,
-        residuals.report.relative_translation_residual,
-        residuals.path_resistance,
-        residuals.DriftFactor(options.rejected_link_max_drift_factor),
-        confirmed ? StringPrintf("confirmed: its %d image pairs stay in the "
-                                 "refinement",
-                                 static_cast<int>(rejected.pairs.size()))
-                        .c_str()
-                  : "still rejected");
-    if (confirmed) {
-      for (const image_pair_t pair_id : rejected.pairs) {
-        false_pairs.erase(pair_id);
-      }
-    }
-  }
-  return false_pairs;
 }
 
 // Communities that the averaging sent out of the merge lose their model
@@ -766,7 +719,12 @@ CommunityMergeResult MergeCommunities(const CommunityMergeOptions& options,
   const std::vector<RelativeSimilarity>& similarities =
       community_similarities.similarities;
   const std::unordered_set<image_pair_t> false_pairs =
-      FalsePairsAfterTheMerge(options, community_similarities, averaging);
+      options.confirm_rejected_links
+          ? ConfirmRejectedLinks(community_similarities,
+                                 averaging,
+                                 options.similarity_averaging,
+                                 options.rejected_link_max_drift_factor)
+          : community_similarities.false_pairs;
   if (!false_pairs.empty()) {
     LOG(INFO) << StringPrintf(
         "%d image pairs between communities support only rejected "

@@ -73,7 +73,7 @@ struct CommunityMergeOptions {
   // A similarity the co-visibility check rejected, between two communities
   // that the averaging joins through other links, is confirmed where it
   // lies within the averaging's residual bounds of that placement
-  // (ResidualsAgainstMerge in community_alignment.h): its image pairs then
+  // (link_confirmation.h): its image pairs then
   // stay in the refinement and close the loop there. False: every rejected
   // similarity's pairs are left out.
   bool confirm_rejected_links = true;

@@ -363,203 +363,201 @@ bool MergedModelRefinementOptions::Check() const {
   return true;
 }
 
-MergedModelRefinementSummary RefineMergedModel(
+MergedModelRefiner::MergedModelRefiner(
     const MergedModelRefinementOptions& options,
     const IncrementalMapperOptions& mapper_options,
-    const std::function<std::shared_ptr<const DatabaseCache>()>&
-        load_correspondences,
+    std::function<std::shared_ptr<const DatabaseCache>()> load_correspondences,
     const std::unordered_map<image_t, int>& community_of_image,
     const std::vector<std::shared_ptr<const Reconstruction>>& offered_models,
-    std::shared_ptr<Reconstruction> reconstruction) {
-  THROW_CHECK(options.Check());
-  THROW_CHECK(mapper_options.Check());
-  MergedModelRefinementSummary summary;
-  reconstruction->UpdatePoint3DErrors();
-  summary.initial_mean_reprojection_error =
-      reconstruction->ComputeMeanReprojectionError();
+    std::shared_ptr<Reconstruction> reconstruction)
+    : options_(options),
+      mapper_options_(mapper_options),
+      incremental_(mapper_options.Mapper()),
+      triangulation_(mapper_options.Triangulation()),
+      ba_options_(mapper_options.GlobalBundleAdjustment()),
+      load_correspondences_(std::move(load_correspondences)),
+      community_of_image_(community_of_image),
+      offered_models_(offered_models),
+      reconstruction_(std::move(reconstruction)),
+      block_registered_(offered_models.size(), false) {
+  THROW_CHECK(options_.Check());
+  THROW_CHECK(mapper_options_.Check());
+  THROW_CHECK_NOTNULL(reconstruction_);
+}
 
-  const IncrementalMapper::Options incremental = mapper_options.Mapper();
-  const IncrementalTriangulator::Options triangulation =
-      mapper_options.Triangulation();
-  const BundleAdjustmentOptions ba_options =
-      mapper_options.GlobalBundleAdjustment();
-  Timer timer;
+MergedModelRefinementSummary MergedModelRefiner::Run() {
+  reconstruction_->UpdatePoint3DErrors();
+  summary_.initial_mean_reprojection_error =
+      reconstruction_->ComputeMeanReprojectionError();
+  Align();
+  BeginMapper();
+  RegisterRemainingImages(/*log_none=*/true);
+  TriangulateAnew();
+  RegisterRemainingImages(/*log_none=*/false);
+  AdjustInRounds();
+  AdjustLastTime();
+  reconstruction_->UpdatePoint3DErrors();
+  summary_.final_mean_reprojection_error =
+      reconstruction_->ComputeMeanReprojectionError();
+  return summary_;
+}
 
+void MergedModelRefiner::Align() {
   // 1. Alignment: the joined communities are each right, but where they
   // meet they are only as close as the averaged similarities put them. A
   // bundle adjustment of all cameras on a reduced set of the joined points
   // (robust loss, if asked), those merged across the borders among them,
   // pulls them together. It runs before the correspondences are loaded, so
   // that its problem and the correspondence graph are never held at once.
-  timer.Restart();
+  Timer timer;
+  timer.Start();
   {
-    ObservationManager observation_manager(*reconstruction);
-    AlignCameras(options,
-                 options.robust_first_adjustment ? RobustOptions(ba_options)
-                                                 : ba_options,
-                 community_of_image,
+    ObservationManager observation_manager(*reconstruction_);
+    AlignCameras(options_,
+                 options_.robust_first_adjustment ? RobustOptions(ba_options_)
+                                                  : ba_options_,
+                 community_of_image_,
                  &observation_manager,
-                 reconstruction.get());
+                 reconstruction_.get());
   }
   ReleaseFreedMemory();
   LOG(INFO) << StringPrintf("Aligned the cameras (%.1fs; %s)",
                             timer.ElapsedSeconds(),
                             ProcessMemoryToString(ReadProcessMemory()).c_str());
+}
 
+void MergedModelRefiner::BeginMapper() {
   // Step (2) deletes every point. Where no image is left to register before
   // it (every image of the correspondence graph is registered and no model
   // is offered), they are deleted before the mapper starts: its start counts
   // the correspondences of every observation, for points about to go (3 s
   // on a generated dense scene of 560 images).
-  std::shared_ptr<const DatabaseCache> database_cache = load_correspondences();
-  if (offered_models.empty() &&
+  std::shared_ptr<const DatabaseCache> database_cache = load_correspondences_();
+  if (offered_models_.empty() &&
       std::all_of(database_cache->Images().begin(),
                   database_cache->Images().end(),
                   [&](const auto& image) {
-                    return reconstruction->ExistsImage(image.first) &&
-                           reconstruction->IsImageRegistered(image.first);
+                    return reconstruction_->ExistsImage(image.first) &&
+                           reconstruction_->IsImageRegistered(image.first);
                   })) {
-    for (const point3D_t point3D_id : reconstruction->Point3DIds()) {
-      reconstruction->DeletePoint3D(point3D_id);
+    for (const point3D_t point3D_id : reconstruction_->Point3DIds()) {
+      reconstruction_->DeletePoint3D(point3D_id);
     }
   }
-  auto mapper = std::make_unique<IncrementalMapper>(std::move(database_cache));
-  mapper->BeginReconstruction(reconstruction);
+  mapper_ = std::make_unique<IncrementalMapper>(std::move(database_cache));
+  mapper_->BeginReconstruction(reconstruction_);
+}
 
-  // The images deregistered as misplaced in step (3), each at most once.
-  std::unordered_set<image_t> deregistered_images;
-  const auto num_registered_again = [&]() {
-    return static_cast<size_t>(
-        std::count_if(deregistered_images.begin(),
-                      deregistered_images.end(),
-                      [&](const image_t image_id) {
-                        return reconstruction->IsImageRegistered(image_id);
-                      }));
-  };
+size_t MergedModelRefiner::NumRegisteredAgain() const {
+  return static_cast<size_t>(
+      std::count_if(deregistered_images_.begin(),
+                    deregistered_images_.end(),
+                    [&](const image_t image_id) {
+                      return reconstruction_->IsImageRegistered(image_id);
+                    }));
+}
 
-  // Images that no community registered (those of communities without a
-  // model, or left out by their community's mapper) are registered as the
-  // incremental mapper does: one at a time, the best candidate first, each
-  // followed by a local bundle adjustment with filtering (Mapper.ba_local_*).
-  // Without those, a whole community registered through images that were
-  // registered before it, on a generated scene with 5% wrong matches, ended
-  // up to 60 m off (extent 154 m); with them, 0.037 m at the median, as
-  // colmap mapper (0.034). This is tried again once the model has
-  // changed: after the triangulation anew and after every adjustment, as
-  // more points and better poses can admit images that failed before (each
-  // image at most Mapper.max_reg_trials times per loading of the
-  // correspondences).
-  // Each offered community model is registered as a block once the merged
-  // model shares enough of its images, with the checks of
-  // EstimateBlockRegistration (tried before any image is registered one by
-  // one and after each, again in every round: the points change). The
-  // mapper then begins anew on the reconstruction (its per-camera counts
-  // must hold the block's images), which also resets its count of
-  // registration trials.
-  std::vector<bool> block_registered(offered_models.size(), false);
-  // The shared images of the last try in this round (a try with no new one
-  // is not repeated).
-  std::vector<size_t> num_tried_shared_images;
-  const auto register_offered_blocks = [&]() {
-    if (!options.register_offered_blocks) {
-      return;
+void MergedModelRefiner::RegisterOfferedBlocks() {
+  if (!options_.register_offered_blocks) {
+    return;
+  }
+  for (size_t k = 0; k < offered_models_.size(); ++k) {
+    if (block_registered_[k]) {
+      continue;
     }
-    for (size_t k = 0; k < offered_models.size(); ++k) {
-      if (block_registered[k]) {
-        continue;
-      }
-      const Reconstruction& model = *offered_models[k];
-      size_t num_shared_images = 0;
-      for (const image_t image_id : model.RegImageIds()) {
-        num_shared_images += reconstruction->ExistsImage(image_id) &&
-                             reconstruction->IsImageRegistered(image_id);
-      }
-      if (num_shared_images == num_tried_shared_images[k]) {
-        continue;
-      }
-      num_tried_shared_images[k] = num_shared_images;
-      const BlockRegistration block = EstimateBlockRegistration(
-          model, *reconstruction, options.block_registration);
-      if (!block.success) {
-        continue;
-      }
-      block_registered[k] = true;
-      ApplyBlockRegistration(model, block, reconstruction.get());
-      // The mapper learns of the images as registered as when it begins a
-      // reconstruction (its per-camera counts); then they are triangulated
-      // with the images registered before.
-      mapper->EndReconstruction(/*discard=*/false);
-      mapper->BeginReconstruction(reconstruction);
-      for (const image_t image_id : block.image_ids) {
-        mapper->TriangulateImage(triangulation, image_id);
-      }
-      // Not the next local adjustment's business (it would take them all).
-      mapper->ClearModifiedPoints3D();
-      summary.num_block_registered_images +=
-          static_cast<int>(block.image_ids.size());
-      LOG(INFO) << StringPrintf(
-          "Registered %d images of an offered community model as one block, "
-          "through %d images both registered (similarity from %d of %d "
-          "points)",
-          static_cast<int>(block.image_ids.size()),
-          block.num_shared_images,
-          block.num_inliers,
-          block.num_correspondences);
+    const Reconstruction& model = *offered_models_[k];
+    size_t num_shared_images = 0;
+    for (const image_t image_id : model.RegImageIds()) {
+      num_shared_images += reconstruction_->ExistsImage(image_id) &&
+                           reconstruction_->IsImageRegistered(image_id);
     }
-  };
-  // Returns the number of images registered.
-  const auto register_remaining_images = [&](const bool log_none) {
-    if (!options.register_remaining_images) {
-      return size_t{0};
+    if (num_shared_images == num_tried_shared_images_[k]) {
+      continue;
     }
-    Timer registration_timer;
-    registration_timer.Start();
-    const size_t num_reg_images_before = reconstruction->NumRegImages();
-    const int num_block_images_before = summary.num_block_registered_images;
-    const size_t num_again_before = num_registered_again();
-    num_tried_shared_images.assign(offered_models.size(), 0);
-    register_offered_blocks();
-    while (true) {
-      bool registered = false;
-      for (const image_t image_id : mapper->FindNextImages(incremental)) {
-        if (mapper->RegisterNextImage(incremental, image_id)) {
-          mapper->TriangulateImage(triangulation, image_id);
-          mapper->IterativeLocalRefinement(
-              mapper_options.ba_local_max_refinements,
-              mapper_options.ba_local_max_refinement_change,
-              incremental,
-              mapper_options.LocalBundleAdjustment(),
-              triangulation,
-              image_id);
-          registered = true;
-          register_offered_blocks();
-          break;  // The next image is chosen with this one's points.
-        }
-      }
-      if (!registered) {
-        break;
-      }
+    num_tried_shared_images_[k] = num_shared_images;
+    const BlockRegistration block = EstimateBlockRegistration(
+        model, *reconstruction_, options_.block_registration);
+    if (!block.success) {
+      continue;
     }
-    const size_t num_registered =
-        reconstruction->NumRegImages() - num_reg_images_before;
-    const size_t num_again = num_registered_again() - num_again_before;
-    summary.num_newly_registered_images +=
-        static_cast<int>(num_registered - num_again);
-    summary.num_reregistered_images += static_cast<int>(num_again);
-    if (num_registered > 0 || log_none) {
-      LOG(INFO) << StringPrintf(
-          "Registered %d images that no community of the model had "
-          "registered, %d of them as blocks, and %d deregistered ones again "
-          "(%.1fs)",
-          static_cast<int>(num_registered - num_again),
-          summary.num_block_registered_images - num_block_images_before,
-          static_cast<int>(num_again),
-          registration_timer.ElapsedSeconds());
+    block_registered_[k] = true;
+    ApplyBlockRegistration(model, block, reconstruction_.get());
+    // The mapper learns of the images as registered as when it begins a
+    // reconstruction (its per-camera counts); then they are triangulated
+    // with the images registered before.
+    mapper_->EndReconstruction(/*discard=*/false);
+    mapper_->BeginReconstruction(reconstruction_);
+    for (const image_t image_id : block.image_ids) {
+      mapper_->TriangulateImage(triangulation_, image_id);
     }
-    return num_registered;
-  };
-  register_remaining_images(/*log_none=*/true);
+    // Not the next local adjustment's business (it would take them all).
+    mapper_->ClearModifiedPoints3D();
+    summary_.num_block_registered_images +=
+        static_cast<int>(block.image_ids.size());
+    LOG(INFO) << StringPrintf(
+        "Registered %d images of an offered community model as one block, "
+        "through %d images both registered (similarity from %d of %d "
+        "points)",
+        static_cast<int>(block.image_ids.size()),
+        block.num_shared_images,
+        block.num_inliers,
+        block.num_correspondences);
+  }
+}
 
+size_t MergedModelRefiner::RegisterRemainingImages(const bool log_none) {
+  if (!options_.register_remaining_images) {
+    return 0;
+  }
+  Timer timer;
+  timer.Start();
+  const size_t num_reg_images_before = reconstruction_->NumRegImages();
+  const int num_block_images_before = summary_.num_block_registered_images;
+  const size_t num_again_before = NumRegisteredAgain();
+  num_tried_shared_images_.assign(offered_models_.size(), 0);
+  RegisterOfferedBlocks();
+  while (true) {
+    bool registered = false;
+    for (const image_t image_id : mapper_->FindNextImages(incremental_)) {
+      if (given_up_images_.count(image_id) == 0 &&
+          mapper_->RegisterNextImage(incremental_, image_id)) {
+        mapper_->TriangulateImage(triangulation_, image_id);
+        mapper_->IterativeLocalRefinement(
+            mapper_options_.ba_local_max_refinements,
+            mapper_options_.ba_local_max_refinement_change,
+            incremental_,
+            mapper_options_.LocalBundleAdjustment(),
+            triangulation_,
+            image_id);
+        registered = true;
+        RegisterOfferedBlocks();
+        break;  // The next image is chosen with this one's points.
+      }
+    }
+    if (!registered) {
+      break;
+    }
+  }
+  const size_t num_registered =
+      reconstruction_->NumRegImages() - num_reg_images_before;
+  const size_t num_again = NumRegisteredAgain() - num_again_before;
+  summary_.num_newly_registered_images +=
+      static_cast<int>(num_registered - num_again);
+  summary_.num_reregistered_images += static_cast<int>(num_again);
+  if (num_registered > 0 || log_none) {
+    LOG(INFO) << StringPrintf(
+        "Registered %d images that no community of the model had "
+        "registered, %d of them as blocks, and %d deregistered ones again "
+        "(%.1fs)",
+        static_cast<int>(num_registered - num_again),
+        summary_.num_block_registered_images - num_block_images_before,
+        static_cast<int>(num_again),
+        timer.ElapsedSeconds());
+  }
+  return num_registered;
+}
+
+void MergedModelRefiner::TriangulateAnew() {
   // 2. With the cameras in place, all points are triangulated anew over the
   // whole correspondence graph, as the incremental mapper builds its tracks
   // (the communities' tracks end at their borders, and their merge leaves
@@ -570,44 +568,40 @@ MergedModelRefinementSummary RefineMergedModel(
   // squares adjustment, those observations cannot dominate it: the first
   // round converges in a few iterations instead of tens, and a dense
   // scene's cameras end closer (docs/design.md).
-  timer.Restart();
-  for (const point3D_t point3D_id : reconstruction->Point3DIds()) {
-    mapper->ObservationManager().DeletePoint3D(point3D_id);
+  Timer timer;
+  timer.Start();
+  for (const point3D_t point3D_id : reconstruction_->Point3DIds()) {
+    mapper_->ObservationManager().DeletePoint3D(point3D_id);
   }
-  for (const image_t image_id : reconstruction->RegImageIds()) {
-    mapper->TriangulateImage(triangulation, image_id);
+  for (const image_t image_id : reconstruction_->RegImageIds()) {
+    mapper_->TriangulateImage(triangulation_, image_id);
   }
-  const size_t num_completed = mapper->CompleteAndMergeTracks(triangulation);
+  const size_t num_completed = mapper_->CompleteAndMergeTracks(triangulation_);
   size_t num_filtered = 0;
-  if (options.triangulation_filter_factor > 0) {
-    IncrementalMapper::Options filter_options = incremental;
+  if (options_.triangulation_filter_factor > 0) {
+    IncrementalMapper::Options filter_options = incremental_;
     filter_options.filter_max_reproj_error *=
-        options.triangulation_filter_factor;
-    num_filtered = mapper->FilterPoints(filter_options);
+        options_.triangulation_filter_factor;
+    num_filtered = mapper_->FilterPoints(filter_options);
   }
   LOG(INFO) << StringPrintf(
       "Triangulated %d points anew, completed and merged %d observations, "
       "filtered %d (%.1fs; %s)",
-      static_cast<int>(reconstruction->NumPoints3D()),
+      static_cast<int>(reconstruction_->NumPoints3D()),
       static_cast<int>(num_completed),
       static_cast<int>(num_filtered),
       timer.ElapsedSeconds(),
       ProcessMemoryToString(ReadProcessMemory()).c_str());
-  register_remaining_images(/*log_none=*/false);
+}
 
-  // 3. As the incremental mapper's global refinement: least squares bundle
-  // adjustment alternating with filtering and track completion until few
-  // observations change. With `reload_correspondences`, every adjustment
-  // runs with the correspondences released and they are loaded again after
-  // it, so that its problem and the correspondence graph are never held at
-  // once.
-  std::unique_ptr<ObservationManager> observation_manager;
-  const auto release_correspondences = [&]() {
-    mapper->EndReconstruction(/*discard=*/false);
-    mapper.reset();
-    ReleaseFreedMemory();
-    observation_manager = std::make_unique<ObservationManager>(*reconstruction);
-  };
+void MergedModelRefiner::ReleaseCorrespondences() {
+  mapper_->EndReconstruction(/*discard=*/false);
+  mapper_.reset();
+  ReleaseFreedMemory();
+  observation_manager_ = std::make_unique<ObservationManager>(*reconstruction_);
+}
+
+void MergedModelRefiner::DeregisterMisplacedImages() {
   // A registered image whose observations are few against the points of the
   // other images its keypoints correspond to (ObservationManager's visible
   // points: what the mapper ranks candidate images by) sits where its
@@ -620,73 +614,104 @@ MergedModelRefinementSummary RefineMergedModel(
   // inliers no other community shared; in the merged model it kept 39
   // observations of its visible points, where the median image kept 2011.
   constexpr double kMinObservedVisibleFraction = 0.1;
-  const auto deregister_misplaced_images = [&]() {
-    ObservationManager& observations = mapper->ObservationManager();
-    std::vector<image_t> misplaced_image_ids;
-    double min_fraction = 1;
-    for (const image_t image_id : reconstruction->RegImageIds()) {
-      const size_t num_observed = reconstruction->Image(image_id).NumPoints3D();
-      const size_t num_visible = observations.NumVisiblePoints3D(image_id);
-      const double fraction =
-          num_visible == 0 ? 1.0
-                           : static_cast<double>(num_observed) / num_visible;
-      min_fraction = std::min(min_fraction, fraction);
-      if ((num_observed <
-               static_cast<size_t>(incremental.abs_pose_min_num_inliers) ||
-           fraction < kMinObservedVisibleFraction) &&
-          deregistered_images.insert(image_id).second) {
-        misplaced_image_ids.push_back(image_id);
+  ObservationManager& observations = mapper_->ObservationManager();
+  std::vector<image_t> misplaced_image_ids;
+  double min_fraction = 1;
+  for (const image_t image_id : reconstruction_->RegImageIds()) {
+    const size_t num_observed = reconstruction_->Image(image_id).NumPoints3D();
+    const size_t num_visible = observations.NumVisiblePoints3D(image_id);
+    const double fraction =
+        num_visible == 0 ? 1.0
+                         : static_cast<double>(num_observed) / num_visible;
+    min_fraction = std::min(min_fraction, fraction);
+    if ((num_observed <
+             static_cast<size_t>(incremental_.abs_pose_min_num_inliers) ||
+         fraction < kMinObservedVisibleFraction) &&
+        deregistered_images_.insert(image_id).second) {
+      misplaced_image_ids.push_back(image_id);
+    }
+  }
+  LOG(INFO) << StringPrintf(
+      "Lowest share of an image's visible points it observes: %.3f",
+      min_fraction);
+  for (const image_t image_id : misplaced_image_ids) {
+    observations.DeRegisterImage(image_id);
+  }
+  if (!misplaced_image_ids.empty()) {
+    // The mapper's per-camera counts learn of them.
+    mapper_->EndReconstruction(/*discard=*/false);
+    mapper_->BeginReconstruction(reconstruction_);
+    LOG(INFO) << StringPrintf(
+        "Deregistered %d images that observe few of their visible points, "
+        "to register them again",
+        static_cast<int>(misplaced_image_ids.size()));
+  }
+}
+
+void MergedModelRefiner::FilterImages() {
+  // As the incremental mapper after each global refinement: images whose
+  // camera came out implausible (focal length or distortion beyond
+  // Mapper.min/max_focal_length_ratio and max_extra_param) are
+  // deregistered, to be registered again with their camera reset to the
+  // database's (IncrementalMapper::RegisterNextImage). An image filtered a
+  // second time is not registered again: its camera cannot be estimated
+  // from what the model sees of it, and each new try would cost a round.
+  const std::vector<image_t> reg_image_ids = reconstruction_->RegImageIds();
+  if (mapper_->FilterImages(incremental_) == 0) {
+    return;
+  }
+  for (const image_t image_id : reg_image_ids) {
+    if (!reconstruction_->IsImageRegistered(image_id)) {
+      ++summary_.num_filtered_images;
+      deregistered_images_.insert(image_id);
+      if (!filtered_images_.insert(image_id).second) {
+        given_up_images_.insert(image_id);
       }
     }
-    LOG(INFO) << StringPrintf(
-        "Lowest share of an image's visible points it observes: %.3f",
-        min_fraction);
-    for (const image_t image_id : misplaced_image_ids) {
-      observations.DeRegisterImage(image_id);
-    }
-    if (!misplaced_image_ids.empty()) {
-      // The mapper's per-camera counts learn of them.
-      mapper->EndReconstruction(/*discard=*/false);
-      mapper->BeginReconstruction(reconstruction);
-      LOG(INFO) << StringPrintf(
-          "Deregistered %d images that observe few of their visible points, "
-          "to register them again",
-          static_cast<int>(misplaced_image_ids.size()));
-    }
-  };
+  }
+}
+
+void MergedModelRefiner::AdjustInRounds() {
+  // 3. As the incremental mapper's global refinement: least squares bundle
+  // adjustment alternating with filtering and track completion until few
+  // observations change. With `reload_correspondences`, every adjustment
+  // runs with the correspondences released and they are loaded again after
+  // it, so that its problem and the correspondence graph are never held at
+  // once.
   const double max_change =
-      options.max_refinement_change >= 0
-          ? options.max_refinement_change
-          : mapper_options.ba_global_max_refinement_change;
-  for (int i = 0; i < std::max(1, mapper_options.ba_global_max_refinements);
+      options_.max_refinement_change >= 0
+          ? options_.max_refinement_change
+          : mapper_options_.ba_global_max_refinement_change;
+  for (int i = 0; i < std::max(1, mapper_options_.ba_global_max_refinements);
        ++i) {
-    if (options.reload_correspondences) {
-      release_correspondences();
+    if (options_.reload_correspondences) {
+      ReleaseCorrespondences();
     }
-    const size_t num_observations = reconstruction->ComputeNumObservations();
+    const size_t num_observations = reconstruction_->ComputeNumObservations();
     AdjustGlobalBundle(
-        ba_options,
-        options,
-        mapper ? &mapper->ObservationManager() : observation_manager.get(),
-        reconstruction.get());
-    reconstruction->Normalize();
-    if (!mapper) {
-      observation_manager.reset();
+        ba_options_,
+        options_,
+        mapper_ ? &mapper_->ObservationManager() : observation_manager_.get(),
+        reconstruction_.get());
+    reconstruction_->Normalize();
+    if (!mapper_) {
+      observation_manager_.reset();
       ReleaseFreedMemory();
-      mapper = std::make_unique<IncrementalMapper>(load_correspondences());
-      mapper->BeginReconstruction(reconstruction);
+      mapper_ = std::make_unique<IncrementalMapper>(load_correspondences_());
+      mapper_->BeginReconstruction(reconstruction_);
     }
-    deregister_misplaced_images();
-    const size_t num_registered = register_remaining_images(/*log_none=*/false);
+    DeregisterMisplacedImages();
+    FilterImages();
+    const size_t num_registered = RegisterRemainingImages(/*log_none=*/false);
     // Pairs the first triangulation left under-reconstructed (a border
     // still a little apart) are triangulated again with the adjusted poses,
     // once (the triangulator tries a pair once: a mapper loaded anew would
     // try them all again).
-    size_t num_changed = mapper->CompleteAndMergeTracks(triangulation);
+    size_t num_changed = mapper_->CompleteAndMergeTracks(triangulation_);
     if (i == 0) {
-      num_changed += mapper->Retriangulate(triangulation);
+      num_changed += mapper_->Retriangulate(triangulation_);
     }
-    num_changed += mapper->FilterPoints(incremental);
+    num_changed += mapper_->FilterPoints(incremental_);
     const double changed =
         num_observations == 0
             ? 0
@@ -702,12 +727,15 @@ MergedModelRefinementSummary RefineMergedModel(
       break;
     }
   }
-  summary.num_filtered_images =
-      static_cast<int>(mapper->FilterImages(incremental));
+  // Images whose camera is still implausible stay out of the last
+  // adjustment, as they stay out of the incremental mapper's model.
+  FilterImages();
   // The correspondences are not needed any more: the last adjustment runs
   // without them in memory.
-  release_correspondences();
+  ReleaseCorrespondences();
+}
 
+void MergedModelRefiner::AdjustLastTime() {
   // The last track completion and filtering changed a few observations;
   // adjusting once more on them moves the cameras noticeably, as the
   // adjustments before stopped where those observations held them: on a
@@ -722,40 +750,35 @@ MergedModelRefinementSummary RefineMergedModel(
   // errors beyond a few times their noise of 0.15-0.2 px (community_merger.h).
   constexpr double kMinFinalMaxReprojError = 1.0;
   const double final_max_reproj_error = NoiseRelativeReprojectionThreshold(
-      *reconstruction,
-      options.final_filter_noise_multiple,
-      std::min(kMinFinalMaxReprojError, incremental.filter_max_reproj_error),
-      incremental.filter_max_reproj_error);
-  if (final_max_reproj_error < incremental.filter_max_reproj_error) {
-    const size_t num_filtered_noise = observation_manager->FilterAllPoints3D(
-        final_max_reproj_error, incremental.filter_min_tri_angle);
+      *reconstruction_,
+      options_.final_filter_noise_multiple,
+      std::min(kMinFinalMaxReprojError, incremental_.filter_max_reproj_error),
+      incremental_.filter_max_reproj_error);
+  if (final_max_reproj_error < incremental_.filter_max_reproj_error) {
+    const size_t num_filtered_noise = observation_manager_->FilterAllPoints3D(
+        final_max_reproj_error, incremental_.filter_min_tri_angle);
     LOG(INFO) << StringPrintf(
         "Filtered %d observations above %.2f px (%g times the reprojection "
         "noise) before the last adjustment",
         static_cast<int>(num_filtered_noise),
         final_max_reproj_error,
-        options.final_filter_noise_multiple);
+        options_.final_filter_noise_multiple);
   }
-  MergedModelRefinementOptions full_options = options;
+  MergedModelRefinementOptions full_options = options_;
   full_options.reduced_adjustment = false;
-  AdjustGlobalBundle(ba_options,
+  AdjustGlobalBundle(ba_options_,
                      full_options,
-                     observation_manager.get(),
-                     reconstruction.get());
+                     observation_manager_.get(),
+                     reconstruction_.get());
   // As after every adjustment before (and the incremental mapper's last),
   // the observations it left too far from their points, or behind their
   // camera, are filtered: a two-view point behind a camera gave a generated
   // chain's model a mean reprojection error of 5e149 pixels.
-  const size_t num_filtered_last = observation_manager->FilterAllPoints3D(
-      final_max_reproj_error, incremental.filter_min_tri_angle);
+  const size_t num_filtered_last = observation_manager_->FilterAllPoints3D(
+      final_max_reproj_error, incremental_.filter_min_tri_angle);
   LOG(INFO) << StringPrintf(
       "Filtered %d observations after the last adjustment",
       static_cast<int>(num_filtered_last));
-
-  reconstruction->UpdatePoint3DErrors();
-  summary.final_mean_reprojection_error =
-      reconstruction->ComputeMeanReprojectionError();
-  return summary;
 }
 
 }  // namespace colmap

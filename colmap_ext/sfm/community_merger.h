@@ -25,6 +25,8 @@
 #include "colmap/geometry/sim3.h"
 #include "colmap/scene/database_cache.h"
 #include "colmap/scene/reconstruction.h"
+#include "colmap/sfm/incremental_mapper.h"
+#include "colmap/sfm/observation_manager.h"
 
 #include <functional>
 #include <memory>
@@ -211,32 +213,96 @@ struct MergedModelRefinementSummary {
   int num_newly_registered_images = 0;
   // Of those, registered as blocks of offered community models.
   int num_block_registered_images = 0;
-  // Images the refinement deregistered as misplaced (they observe few of
-  // their visible points) and registered again.
+  // Images the refinement deregistered (misplaced: they observe few of
+  // their visible points; or filtered) and registered again.
   int num_reregistered_images = 0;
+  // Images deregistered because their camera came out implausible.
   int num_filtered_images = 0;
   double initial_mean_reprojection_error = 0.0;
   double final_mean_reprojection_error = 0.0;
 };
 
 // Completes, merges and refines the joined model with COLMAP's incremental
-// mapper machinery on the full database (see the top of this file). The
-// mapper, triangulation and global bundle adjustment options come from
-// `mapper_options` (the user's --Mapper.* flags). `community_of_image` tells
-// the community of each joined image (images it does not list count as a
-// community of their own). `load_correspondences` returns the database
-// cache of the model's images; it is called after the alignment and, with
-// `reload_correspondences`, again after every adjustment round; the cache
-// is released before the last adjustment. `offered_models` are the models
-// (each in its own frame) of communities whose images are offered to the
-// refinement, registered as blocks with `register_offered_blocks`.
-MergedModelRefinementSummary RefineMergedModel(
-    const MergedModelRefinementOptions& options,
-    const IncrementalMapperOptions& mapper_options,
-    const std::function<std::shared_ptr<const DatabaseCache>()>&
-        load_correspondences,
-    const std::unordered_map<image_t, int>& community_of_image,
-    const std::vector<std::shared_ptr<const Reconstruction>>& offered_models,
-    std::shared_ptr<Reconstruction> reconstruction);
+// mapper machinery on the full database (see the top of this file), one
+// method per step. The mapper, triangulation and global bundle adjustment
+// options come from `mapper_options` (the user's --Mapper.* flags).
+// `community_of_image` tells the community of each joined image (images it
+// does not list count as a community of their own). `load_correspondences`
+// returns the database cache of the model's images; it is called after the
+// alignment and, with `reload_correspondences`, again after every
+// adjustment round; the cache is released before the last adjustment.
+// `offered_models` are the models (each in its own frame) of communities
+// whose images are offered to the refinement, registered as blocks with
+// `register_offered_blocks`.
+class MergedModelRefiner {
+ public:
+  MergedModelRefiner(
+      const MergedModelRefinementOptions& options,
+      const IncrementalMapperOptions& mapper_options,
+      std::function<std::shared_ptr<const DatabaseCache>()>
+          load_correspondences,
+      const std::unordered_map<image_t, int>& community_of_image,
+      const std::vector<std::shared_ptr<const Reconstruction>>& offered_models,
+      std::shared_ptr<Reconstruction> reconstruction);
+
+  // Runs the steps in order, once.
+  MergedModelRefinementSummary Run();
+
+ private:
+  // (1) A bundle adjustment of all cameras on a reduced set of the joined
+  // points, before the correspondences are loaded.
+  void Align();
+  // Loads the correspondences and begins the incremental mapper on the
+  // model.
+  void BeginMapper();
+  // Registers the images no community registered, offered models as blocks
+  // first; returns the number of images registered.
+  size_t RegisterRemainingImages(bool log_none);
+  void RegisterOfferedBlocks();
+  // (2) Every point triangulated anew over the correspondence graph.
+  void TriangulateAnew();
+  // (3) Bundle adjustments alternating with filtering, track completion and
+  // registration, until few observations change.
+  void AdjustInRounds();
+  void DeregisterMisplacedImages();
+  // Deregisters the images whose camera came out implausible.
+  void FilterImages();
+  // Ends the mapper and releases the correspondences; the observation
+  // manager takes over.
+  void ReleaseCorrespondences();
+  // The last adjustment, over all observations, between two filterings at
+  // the model's reprojection noise.
+  void AdjustLastTime();
+  // Images deregistered as misplaced that are registered again.
+  size_t NumRegisteredAgain() const;
+
+  const MergedModelRefinementOptions options_;
+  const IncrementalMapperOptions mapper_options_;
+  const IncrementalMapper::Options incremental_;
+  const IncrementalTriangulator::Options triangulation_;
+  const BundleAdjustmentOptions ba_options_;
+  const std::function<std::shared_ptr<const DatabaseCache>()>
+      load_correspondences_;
+  const std::unordered_map<image_t, int> community_of_image_;
+  const std::vector<std::shared_ptr<const Reconstruction>> offered_models_;
+  std::shared_ptr<Reconstruction> reconstruction_;
+  // The mapper while the correspondences are loaded; the observation
+  // manager while they are released.
+  std::unique_ptr<IncrementalMapper> mapper_;
+  std::unique_ptr<ObservationManager> observation_manager_;
+  // The images deregistered as misplaced or filtered (a misplaced one at
+  // most once).
+  std::unordered_set<image_t> deregistered_images_;
+  // The images filtered for an implausible camera, and those filtered
+  // twice, which are not registered again.
+  std::unordered_set<image_t> filtered_images_;
+  std::unordered_set<image_t> given_up_images_;
+  // Per offered model: registered as a block, and the images it shared with
+  // the model at the last try of this round (a try with no new one is not
+  // repeated).
+  std::vector<bool> block_registered_;
+  std::vector<size_t> num_tried_shared_images_;
+  MergedModelRefinementSummary summary_;
+};
 
 }  // namespace colmap

@@ -181,7 +181,7 @@ TEST_F(JoinReconstructionsTest, RestrictToImagesDropsBorrowedImages) {
 // points no other community had). In the merged model it then holds few
 // observations, and the refinement must register it again rather than keep
 // it there or drop it.
-TEST(RefineMergedModel, RegistersAgainAnImageItHoldsByFewObservations) {
+TEST(MergedModelRefiner, RegistersAgainAnImageItHoldsByFewObservations) {
   const std::string test_dir = CreateTestFolder();
   SyntheticSceneOptions scene_options;
   scene_options.num_clusters = 2;
@@ -234,13 +234,14 @@ TEST(RefineMergedModel, RegistersAgainAnImageItHoldsByFewObservations) {
 
   IncrementalMapperOptions mapper_options;
   mapper_options.num_threads = 1;
-  const MergedModelRefinementSummary summary = RefineMergedModel(
-      MergedModelRefinementOptions(),
-      mapper_options,
-      [&]() { return database_cache; },
-      community_of_image,
-      /*offered_models=*/{},
-      model);
+  const MergedModelRefinementSummary summary =
+      MergedModelRefiner(MergedModelRefinementOptions(),
+                         mapper_options,
+                         [&]() { return database_cache; },
+                         community_of_image,
+                         /*offered_models=*/{},
+                         model)
+          .Run();
   EXPECT_EQ(summary.num_reregistered_images, 1);
   EXPECT_EQ(summary.num_newly_registered_images, 0);
   EXPECT_TRUE(model->IsImageRegistered(misplaced));
