@@ -519,7 +519,8 @@ size_t MergedModelRefiner::RegisterRemainingImages(const bool log_none) {
   while (true) {
     bool registered = false;
     for (const image_t image_id : mapper_->FindNextImages(incremental_)) {
-      if (given_up_images_.count(image_id) == 0 &&
+      const auto filterings = num_filterings_.find(image_id);
+      if ((filterings == num_filterings_.end() || filterings->second < 2) &&
           mapper_->RegisterNextImage(incremental_, image_id)) {
         mapper_->TriangulateImage(triangulation_, image_id);
         mapper_->IterativeLocalRefinement(
@@ -664,9 +665,7 @@ void MergedModelRefiner::FilterImages() {
     if (!reconstruction_->IsImageRegistered(image_id)) {
       ++summary_.num_filtered_images;
       deregistered_images_.insert(image_id);
-      if (!filtered_images_.insert(image_id).second) {
-        given_up_images_.insert(image_id);
-      }
+      ++num_filterings_[image_id];
     }
   }
 }

@@ -273,7 +273,7 @@ class MergedModelRefiner {
   // The last adjustment, over all observations, between two filterings at
   // the model's reprojection noise.
   void AdjustLastTime();
-  // Images deregistered as misplaced that are registered again.
+  // Images deregistered (misplaced or filtered) that are registered again.
   size_t NumRegisteredAgain() const;
 
   const MergedModelRefinementOptions options_;
@@ -293,10 +293,9 @@ class MergedModelRefiner {
   // The images deregistered as misplaced or filtered (a misplaced one at
   // most once).
   std::unordered_set<image_t> deregistered_images_;
-  // The images filtered for an implausible camera, and those filtered
-  // twice, which are not registered again.
-  std::unordered_set<image_t> filtered_images_;
-  std::unordered_set<image_t> given_up_images_;
+  // How often each image was filtered for an implausible camera; one
+  // filtered twice is not registered again.
+  std::unordered_map<image_t, int> num_filterings_;
   // Per offered model: registered as a block, and the images it shared with
   // the model at the last try of this round (a try with no new one is not
   // repeated).
