@@ -259,7 +259,8 @@ LABELS = {
 }
 COLORS = {"mapper": "tab:blue", "community": "tab:red",
           "hierarchical": "tab:green", "hier_fair": "tab:olive"}
-PHASES = ["Partition", "Communities", "Similarity averaging", "Merge",
+PHASES = ["Partition", "Communities", "Pairwise similarities",
+          "Similarity averaging", "Merge",
           "Final bundle adjustment"]
 
 

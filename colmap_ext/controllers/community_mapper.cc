@@ -23,7 +23,6 @@
 namespace colmap {
 namespace {
 
-
 // The database's fingerprint (community_workspace.h), its opening tried
 // again while another task of a job array holds the database
 // (database_retry.h).
@@ -34,35 +33,6 @@ std::string ReadDatabaseFingerprint(const std::string& database_path) {
   });
   return fingerprint;
 }
-
-// The fraction of `image_names` whose camera no other image of the database
-// uses. The reading is tried again while another process holds the database
-// (database_retry.h), as the community's loading is: a community's settings
-// must not depend on whether the database was locked a moment.
-double OwnCameraFraction(const std::string& database_path,
-                         const std::unordered_set<std::string>& image_names,
-                         std::mutex* database_mutex) {
-  std::vector<Image> images;
-  RetryDatabaseAccessOrThrow(database_path, [&]() {
-    std::lock_guard<std::mutex> lock(*database_mutex);
-    images = Database(database_path).ReadAllImages();
-  });
-  std::unordered_map<camera_t, int> num_images_of_camera;
-  for (const Image& image : images) {
-    ++num_images_of_camera[image.CameraId()];
-  }
-  int num_own = 0;
-  int num_found = 0;
-  for (const Image& image : images) {
-    if (image_names.count(image.Name()) > 0) {
-      ++num_found;
-      num_own += num_images_of_camera.at(image.CameraId()) == 1 ? 1 : 0;
-    }
-  }
-  return num_found == 0 ? 0.0 : static_cast<double>(num_own) / num_found;
-}
-
-
 
 }  // namespace
 
@@ -448,28 +418,51 @@ bool CommunityMapperController::CheckAllReconstructed() const {
   return true;
 }
 
+void CommunityMapperController::EndPhase(const std::string& name,
+                                         const double seconds) {
+  summary_.phase_seconds.emplace_back(name, seconds);
+  LOG(INFO) << StringPrintf("%s: %.3fs (%s)",
+                            name.c_str(),
+                            seconds,
+                            ProcessMemoryToString(ReadProcessMemory()).c_str());
+}
+
 bool CommunityMapperController::Merge() {
   if (!LoadPlan() || !CheckAllReconstructed()) {
     return false;
   }
-  PrintHeading1("3. Merging the communities");
-  CommunityMergeResult result =
-      MergeCommunities(options_.MergeOptions(), plan_, workspace_);
+  CommunityMerge merge(options_.MergeOptions(), plan_, workspace_);
+  Timer timer;
+
+  PrintHeading1("3. Pairwise similarities between connected communities");
+  timer.Start();
+  merge.EstimateSimilarities();
+  EndPhase("Pairwise similarities", timer.ElapsedSeconds());
+
+  PrintHeading1("4. Similarity averaging");
+  timer.Restart();
+  merge.AverageSimilarities();
+  EndPhase("Similarity averaging", timer.ElapsedSeconds());
+
+  PrintHeading1("5. Merge and final bundle adjustment");
+  timer.Restart();
+  merge.MergeParts();
+  const CommunityMergeResult& result = merge.Result();
+  // Joining the models (with the correspondences' loading and colours) and
+  // their refinement are reported apart.
+  EndPhase("Merge", timer.ElapsedSeconds() - result.refinement_seconds);
+  EndPhase("Final bundle adjustment", result.refinement_seconds);
+
   summary_.num_view_graph_images = result.num_view_graph_images;
   summary_.num_view_graph_edges = result.num_view_graph_edges;
-  summary_.community_reports = std::move(result.community_reports);
-  summary_.community_judgements = std::move(result.community_judgements);
-  summary_.community_excluded = std::move(result.community_excluded);
-  summary_.extra_community_origins = std::move(result.extra_community_origins);
-  summary_.community_of_image = std::move(result.community_of_image);
+  summary_.community_reports = result.community_reports;
+  summary_.community_judgements = result.community_judgements;
+  summary_.community_excluded = result.community_excluded;
+  summary_.extra_community_origins = result.extra_community_origins;
+  summary_.community_of_image = result.community_of_image;
   summary_.num_community_pairs = result.num_community_pairs;
   summary_.num_estimated_similarities = result.num_estimated_similarities;
   summary_.num_kept_similarities = result.num_kept_similarities;
-  summary_.phase_seconds.emplace_back("Similarity averaging",
-                                      result.averaging_seconds);
-  summary_.phase_seconds.emplace_back("Merge", result.merge_seconds);
-  summary_.phase_seconds.emplace_back("Final bundle adjustment",
-                                      result.refinement_seconds);
   summary_.peak_memory_mb = ReadProcessMemory().peak_resident_mb;
   if (result.models.empty()) {
     LOG(ERROR) << "No community could be reconstructed: no model written.";
@@ -499,14 +492,6 @@ bool CommunityMapperController::RunAllStages() {
   run_timer.Start();
   summary_ = Summary();
   Timer phase_timer;
-  auto end_phase = [&](const std::string& name) {
-    summary_.phase_seconds.emplace_back(name, phase_timer.ElapsedSeconds());
-    LOG(INFO) << StringPrintf(
-        "%s: %.3fs (%s)",
-        name.c_str(),
-        phase_timer.ElapsedSeconds(),
-        ProcessMemoryToString(ReadProcessMemory()).c_str());
-  };
 
   //////////////////////////////////////////////////////////////////////////////
   // 1. View graph and communities (or the plan of an earlier run)
@@ -523,7 +508,7 @@ bool CommunityMapperController::RunAllStages() {
   } else if (!Partition()) {
     return false;
   }
-  end_phase("Partition");
+  EndPhase("Partition", phase_timer.ElapsedSeconds());
 
   //////////////////////////////////////////////////////////////////////////////
   // 2. Community reconstruction
@@ -582,13 +567,13 @@ bool CommunityMapperController::RunAllStages() {
   }
   thread_pool.Wait();
   ReleaseFreedMemory();  // The workers' heaps (see process_memory.h).
-  end_phase("Communities");
+  EndPhase("Communities", phase_timer.ElapsedSeconds());
   if (CheckIfStopped()) {
     return false;
   }
 
   //////////////////////////////////////////////////////////////////////////////
-  // 3. Similarities, their averaging, the merge and its refinement
+  // 3-5. Pairwise similarities, their averaging, the merge and its refinement
   //////////////////////////////////////////////////////////////////////////////
 
   const bool merged = Merge();

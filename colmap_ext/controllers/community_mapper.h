@@ -169,9 +169,10 @@ class CommunityMapperController : public BaseController {
   // database and options, or K is not in it.
   bool ReconstructCommunity(int community_id);
 
-  // Stage 3: merges the communities of the plan from their models and
-  // records on disk into reconstruction_manager (largest first) and writes
-  // communities.ply. Where a community's mapper made several models, the
+  // Stage 3 (phases 3-5 of a run: pairwise similarities, their averaging,
+  // the merge and its refinement): merges the communities of the plan from
+  // their models and records on disk into reconstruction_manager (largest
+  // first) and writes communities.ply. Where a community's mapper made several models, the
   // others that hold enough of its images take part as extra communities.
   // False if the plan does not fit, or communities have no record yet (they
   // are named).
@@ -200,6 +201,8 @@ class CommunityMapperController : public BaseController {
   // Whether every community of the plan has its record; logs those that
   // have not otherwise.
   bool CheckAllReconstructed() const;
+  // Records a phase's time in the summary and logs it with the memory.
+  void EndPhase(const std::string& name, double seconds);
 
   const Options options_;
   const CommunityWorkspace workspace_;

@@ -26,14 +26,7 @@ void LogMemory(const std::string& step) {
             << ProcessMemoryToString(ReadProcessMemory());
 }
 
-// The own images of every community, by the plan (the merge adds its extra
-// communities).
-struct CommunityImages {
-  std::vector<std::unordered_set<image_t>> own_image_ids;
-  std::unordered_map<image_t, std::string> name_of_image;
-  std::unordered_map<image_t, int> community_of_image;
-};
-
+// The own images of every community, by the plan.
 CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
                                        const CommunityPlan& plan) {
   std::unordered_map<std::string, image_t> image_of_name;
@@ -136,244 +129,114 @@ std::unordered_set<image_t> ImagesNotTaken(
   return left_image_ids;
 }
 
-// Joins the communities of one part (connected by kept similarities) into
-// one model in the global frame, merges their corresponding points and
-// refines the result on the part's own images plus `extra_image_names`
-// (images of communities without a model or that left the merge, and of
-// parts offered to this one, which the refinement tries to register). Own
-// images in `taken_image_ids` (registered by an earlier part's model) are
-// left out. `offered_models` are the models (their own images only) of the
-// communities of parts offered to this one and of those offered to it
-// that left the merge for want of a confirmed link, which the refinement
-// registers as blocks where it can. The communities' own models are
-// consumed. Adds the seconds spent in the refinement to
-// `refinement_seconds`.
-std::shared_ptr<Reconstruction> MergePart(
-    const CommunityMergeOptions& options,
-    const std::vector<int>& part_communities,
-    const CommunityImages& communities,
-    const std::vector<RelativeSimilarity>& similarities,
-    const SimilarityAveragingResult& averaging,
-    const std::unordered_set<std::string>& extra_image_names,
-    const std::unordered_set<image_t>& taken_image_ids,
-    const std::unordered_set<image_pair_t>& false_pairs,
-    const ViewGraph& view_graph,
-    const std::vector<std::shared_ptr<const Reconstruction>>& offered_models,
-    Models* models,
-    double* refinement_seconds) {
-  LOG(INFO) << "Merging communities" << [&] {
-    std::string ids;
-    for (const int c : part_communities) ids += " " + std::to_string(c);
-    return ids;
-  }();
-  std::vector<Reconstruction*> part_models;
-  std::vector<Sim3d> world_from_community;
-  std::vector<std::unordered_set<image_t>> owned_image_ids;
-  std::unordered_set<std::string> part_image_names = extra_image_names;
-  std::map<int, size_t> index_in_part;
-  std::unordered_map<image_t, int> community_of_image;
-  for (const int c : part_communities) {
-    for (const image_t image_id : communities.own_image_ids[c]) {
-      community_of_image.emplace(image_id, c);
-    }
-    index_in_part.emplace(c, part_models.size());
-    part_models.push_back((*models)[c].get());
-    world_from_community.push_back(averaging.world_from_community[c]);
-    owned_image_ids.push_back(
-        ImagesNotTaken(communities.own_image_ids[c], taken_image_ids));
-    for (const image_t image_id : owned_image_ids.back()) {
-      part_image_names.insert(communities.name_of_image.at(image_id));
-    }
-  }
-  // An image left without any pair (all contradicting the merge) cannot be
-  // refined: it stays out. (The view graph tells, before the models are
-  // joined and released, which images the correspondences will hold.)
-  std::unordered_set<image_t> connected_image_ids;
-  for (const ViewGraph::Edge& edge : view_graph.Edges()) {
-    const image_t image_id1 = view_graph.ImageIds()[edge.vertex1];
-    const image_t image_id2 = view_graph.ImageIds()[edge.vertex2];
-    if (part_image_names.count(view_graph.ImageNames()[edge.vertex1]) &&
-        part_image_names.count(view_graph.ImageNames()[edge.vertex2]) &&
-        !false_pairs.count(Database::ImagePairToPairId(image_id1, image_id2))) {
-      connected_image_ids.insert(image_id1);
-      connected_image_ids.insert(image_id2);
-    }
-  }
-  for (std::unordered_set<image_t>& image_ids : owned_image_ids) {
-    for (auto it = image_ids.begin(); it != image_ids.end();) {
-      if (connected_image_ids.count(*it)) {
-        ++it;
-      } else {
-        LOG(WARNING) << "Image " << communities.name_of_image.at(*it)
-                     << " has no image pair left in the merged model; it is "
-                        "left out.";
-        it = image_ids.erase(it);
-      }
-    }
-  }
-  auto merged = std::make_shared<Reconstruction>();
-  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
-  JoinReconstructions(part_models,
-                      world_from_community,
-                      owned_image_ids,
-                      merged.get(),
-                      &point3D_ids);
-  for (const int c : part_communities) {
-    (*models)[c].reset();  // Joined: the community's copy is not needed.
-  }
-  ReleaseFreedMemory();
 
-  std::vector<std::pair<point3D_t, point3D_t>> corresponding_points;
-  for (size_t e = 0; e < similarities.size(); ++e) {
-    if (!averaging.edges[e].kept ||
-        averaging.part_of_community[similarities[e].community1] !=
-            averaging.part_of_community[part_communities[0]]) {
-      continue;
-    }
-    const auto& ids1 =
-        point3D_ids[index_in_part.at(similarities[e].community1)];
-    const auto& ids2 =
-        point3D_ids[index_in_part.at(similarities[e].community2)];
-    for (const auto& pair : similarities[e].point3D_ids) {
-      const auto it1 = ids1.find(pair.first);
-      const auto it2 = ids2.find(pair.second);
-      if (it1 != ids1.end() && it2 != ids2.end()) {
-        corresponding_points.emplace_back(it1->second, it2->second);
-      }
-    }
-  }
-  const size_t num_merged_points =
-      MergeCorrespondingPoints(corresponding_points, merged.get());
-  LOG(INFO) << StringPrintf(
-      "Joined %d images and %d points; merged %d corresponding points",
-      static_cast<int>(merged->NumRegImages()),
-      static_cast<int>(merged->NumPoints3D()),
-      static_cast<int>(num_merged_points));
-  LogMemory("joining the models");
+}  // namespace
 
-  // The correspondences, once the communities' models are released and
-  // the joined cameras aligned (MergedModelRefiner).
-  const auto load_correspondences = [&]() {
-    std::shared_ptr<DatabaseCache> database_cache;
-    {
-      const Database database(options.database_path);
-      database_cache = DatabaseCache::Create(
-          database,
-          static_cast<size_t>(options.min_num_matches),
-          options.incremental_options.ignore_watermarks,
-          part_image_names,
-          [&false_pairs](const image_t image_id1, const image_t image_id2) {
-            return false_pairs.count(
-                       Database::ImagePairToPairId(image_id1, image_id2)) == 0;
-          });
-    }
-    // Building the correspondence graph grows a vector per keypoint and
-    // then flattens them; the freed vectors would stay resident through the
-    // refinement (see ReleaseFreedMemory).
-    ReleaseFreedMemory();
-    for (const image_t image_id : merged->RegImageIds()) {
-      THROW_CHECK(database_cache->ExistsImage(image_id))
-          << "image " << merged->Image(image_id).Name()
-          << " has no correspondences";
-    }
-    LogMemory("loading the correspondences");
-    return std::shared_ptr<const DatabaseCache>(std::move(database_cache));
-  };
-
-  Timer timer;
-  timer.Start();
-  const MergedModelRefinementSummary refinement =
-      MergedModelRefiner(options.refinement,
-                         options.incremental_options,
-                         load_correspondences,
-                         community_of_image,
-                         offered_models,
-                         merged)
-          .Run();
-  *refinement_seconds += timer.ElapsedSeconds();
-  LogMemory("the refinement");
-  LOG(INFO) << StringPrintf(
-      "Merged model: %d images, %d points, mean reprojection error %.3f px "
-      "(%.3f px before refinement), %d images newly registered (%d as "
-      "blocks), %d misplaced ones registered again",
-      static_cast<int>(merged->NumRegImages()),
-      static_cast<int>(merged->NumPoints3D()),
-      refinement.final_mean_reprojection_error,
-      refinement.initial_mean_reprojection_error,
-      refinement.num_newly_registered_images,
-      refinement.num_block_registered_images,
-      refinement.num_reregistered_images);
-  if (options.incremental_options.extract_colors) {
-    merged->ExtractColorsForAllImages(options.image_path);
-  }
-  return merged;
+bool CommunityMergeOptions::Check() const {
+  CHECK_OPTION_GT(min_num_matches, 0);
+  CHECK_OPTION(pairwise_similarity.Check());
+  CHECK_OPTION(covisibility_check.Check());
+  CHECK_OPTION_GE(rejected_link_max_drift_factor, 1.0);
+  CHECK_OPTION(judgement.Check());
+  CHECK_OPTION(similarity_averaging.Check());
+  CHECK_OPTION(refinement.Check());
+  CHECK_OPTION(incremental_options.Check());
+  return true;
 }
 
-// The communities' models as their stage left them in `workspace` (none
+CommunityMerge::CommunityMerge(const CommunityMergeOptions& options,
+                               const CommunityPlan& plan,
+                               const CommunityWorkspace& workspace)
+    : options_(options), plan_(plan), workspace_(workspace) {
+  THROW_CHECK(options_.Check());
+}
+
+void CommunityMerge::EstimateSimilarities() {
+  THROW_CHECK_EQ(num_phases_done_, 0) << "the merge's phases run once each";
+  // The merge gives the same model from the same community models, whatever
+  // ran them and whichever thread merges.
+  SetPRNGSeed(kDefaultPRNGSeed);
+
+  // One connection for the view graph and the cross edges' matches.
+  const Database database(options_.database_path);
+  view_graph_ = std::make_unique<ViewGraph>(ViewGraph::Read(
+      database, options_.min_num_matches, options_.image_names));
+  result_.num_view_graph_images = static_cast<int>(view_graph_->NumVertices());
+  result_.num_view_graph_edges = static_cast<int>(view_graph_->NumEdges());
+  communities_ = GroupImagesByCommunity(*view_graph_, plan_);
+  result_.community_of_image = communities_.community_of_image;
+
+  // The communities, as their stage left them on disk: the plan's, then the
+  // extra ones.
+  ReadCommunityModels();
+  LogMemory("reading the community models");
+
+  cross_edges_ = GroupCrossEdges(*view_graph_, communities_.community_of_image);
+  result_.num_community_pairs = static_cast<int>(cross_edges_.size());
+  similarities_ = EstimateCommunitySimilarities(
+      database,
+      *view_graph_,
+      cross_edges_,
+      std::vector<std::shared_ptr<const Reconstruction>>(models_.begin(),
+                                                         models_.end()),
+      options_.pairwise_similarity,
+      options_.covisibility_check,
+      options_.incremental_options.num_threads);
+  result_.num_estimated_similarities =
+      static_cast<int>(similarities_.similarities.size());
+  num_phases_done_ = 1;
+}
+
+// The communities' models as their stage left them in the workspace (none
 // for a community that registered nothing), the plan's first, then, with
-// `options.merge_other_models`, the extra communities (AddExtraCommunities),
-// with their paths; their reports go to `result`.
-void ReadCommunityModels(const CommunityMergeOptions& options,
-                         const CommunityWorkspace& workspace,
-                         const int num_plan_communities,
-                         CommunityImages* communities,
-                         Models* models_ptr,
-                         std::vector<std::string>* model_paths,
-                         CommunityMergeResult* result) {
-  Models& models = *models_ptr;
-  models.assign(num_plan_communities, nullptr);
-  model_paths->clear();
+// `merge_other_models`, the extra communities (AddExtraCommunities), with
+// their paths and reports.
+void CommunityMerge::ReadCommunityModels() {
+  const int num_plan_communities = plan_.NumCommunities();
+  models_.assign(num_plan_communities, nullptr);
+  model_paths_.clear();
   std::vector<CommunityRecord> records;
-  result->community_reports.assign(num_plan_communities,
-                                    CommunityModelReport());
+  result_.community_reports.assign(num_plan_communities,
+                                   CommunityModelReport());
   for (int c = 0; c < num_plan_communities; ++c) {
     records.push_back(CommunityRecordFromText(
-        ReadTextFile(workspace.CommunityRecordPath(c))));
+        ReadTextFile(workspace_.CommunityRecordPath(c))));
     const CommunityRecord& record = records.back();
-    CommunityModelReport& report = result->community_reports[c];
+    CommunityModelReport& report = result_.community_reports[c];
     report.num_images = record.num_images;
     report.num_registered = record.num_registered;
     report.num_models = record.num_models;
     report.mean_reprojection_error = record.mean_reprojection_error;
-    model_paths->push_back(workspace.CommunityModelPath(c));
+    model_paths_.push_back(workspace_.CommunityModelPath(c));
     if (record.num_registered > 0) {
-      models[c] = std::make_shared<Reconstruction>();
-      models[c]->Read(model_paths->back());
+      models_[c] = std::make_shared<Reconstruction>();
+      models_[c]->Read(model_paths_.back());
     }
   }
-  // Where a community's mapper made several models, the others take part
-  // as extra communities (AddExtraCommunities).
-  result->extra_community_origins.clear();
+  result_.extra_community_origins.clear();
   for (int c = 0; c < num_plan_communities; ++c) {
-    if (models[c] && options.merge_other_models) {
-      AddExtraCommunities(workspace,
+    if (models_[c] && options_.merge_other_models) {
+      AddExtraCommunities(workspace_,
                           records[c],
-                          options.incremental_options.min_model_size,
-                          communities,
-                          models_ptr,
-                          model_paths,
-                          result);
+                          options_.incremental_options.min_model_size,
+                          &communities_,
+                          &models_,
+                          &model_paths_,
+                          &result_);
     }
   }
 }
 
-// Judges every community's own model (JudgeCommunityModels: broken ones
-// leave the merge, doubtful ones count little) and averages the
-// similarities between them. Logs each link's residuals and fate. Fills the
-// judgements and the links of `result`.
-SimilarityAveragingResult JudgeAndAverage(
-    const CommunityMergeOptions& options,
-    const CommunitySimilarities& community_similarities,
-    CommunityMergeResult* result) {
-  const int num_communities =
-      static_cast<int>(result->community_reports.size());
-  result->community_judgements =
-      JudgeCommunityModels(result->community_reports, options.judgement);
+void CommunityMerge::AverageSimilarities() {
+  THROW_CHECK_EQ(num_phases_done_, 1) << "EstimateSimilarities() first";
+  const int num_communities = static_cast<int>(models_.size());
+  result_.community_judgements =
+      JudgeCommunityModels(result_.community_reports, options_.judgement);
   std::vector<AveragedCommunity> averaged_communities(num_communities);
   for (int c = 0; c < num_communities; ++c) {
-    const CommunityJudgement& judgement = result->community_judgements[c];
+    const CommunityJudgement& judgement = result_.community_judgements[c];
     averaged_communities[c].num_images =
-        result->community_reports[c].num_registered;
+        result_.community_reports[c].num_registered;
     averaged_communities[c].doubtful = judgement.doubtful;
     averaged_communities[c].excluded = judgement.broken;
     if (judgement.broken || judgement.doubtful) {
@@ -386,15 +249,14 @@ SimilarityAveragingResult JudgeAndAverage(
     }
   }
   const std::vector<RelativeSimilarity>& similarities =
-      community_similarities.similarities;
-  SimilarityAveragingResult averaging = AverageSimilarities(
-      averaged_communities, similarities, options.similarity_averaging);
-  result->community_excluded = averaging.excluded;
-  result->num_estimated_similarities = static_cast<int>(similarities.size());
-  result->num_kept_similarities = 0;
+      similarities_.similarities;
+  averaging_ = colmap::AverageSimilarities(
+      averaged_communities, similarities, options_.similarity_averaging);
+  result_.community_excluded = averaging_.excluded;
+  result_.num_kept_similarities = 0;
   for (size_t e = 0; e < similarities.size(); ++e) {
-    const auto& report = averaging.edges[e];
-    result->num_kept_similarities += report.kept ? 1 : 0;
+    const auto& report = averaging_.edges[e];
+    result_.num_kept_similarities += report.kept ? 1 : 0;
     LOG(INFO) << StringPrintf(
         "Communities %d-%d: residuals rotation %.3f deg, scale %.4f, "
         "translation %.4f -> %s",
@@ -410,123 +272,128 @@ SimilarityAveragingResult JudgeAndAverage(
                                 "models registered do not confirm it)"
                               : "dropped");
   }
-  return averaging;
+
+  false_pairs_ = options_.confirm_rejected_links
+                     ? ConfirmRejectedLinks(similarities_,
+                                            averaging_,
+                                            options_.similarity_averaging,
+                                            options_.rejected_link_max_drift_factor)
+                     : similarities_.false_pairs;
+  if (!false_pairs_.empty()) {
+    LOG(INFO) << StringPrintf(
+        "%d image pairs between communities support only rejected "
+        "transforms: the refinement leaves them out.",
+        static_cast<int>(false_pairs_.size()));
+  }
+  SetAsideExcludedCommunities();
+  num_phases_done_ = 2;
 }
 
 // Communities that the averaging sent out of the merge lose their model
-// here (their images are offered to the merged models); returns those
-// whose model is not broken, which keep the images no merged model
-// registers (MergeParts). `unconfirmed_communities` receives those of them
-// in doubt that left for want of a link their shared images confirm (no
-// evidence against their model, unlike links that disagree: such a model
-// may be bent), whose models may join as blocks.
-std::vector<int> SetAsideExcludedCommunities(
-    const std::vector<RelativeSimilarity>& similarities,
-    const SimilarityAveragingResult& averaging,
-    Models* models_ptr,
-    std::vector<int>* unconfirmed_communities,
-    CommunityMergeResult* result) {
-  const int num_communities = static_cast<int>(models_ptr->size());
-  std::vector<int> set_aside_communities;
-  Models& models = *models_ptr;
-  for (int c = 0; c < num_communities; ++c) {
-    if (averaging.excluded[c]) {
-      bool unconfirmed = false;
-      for (size_t e = 0; e < similarities.size(); ++e) {
-        unconfirmed = unconfirmed || ((similarities[e].community1 == c ||
-                                       similarities[e].community2 == c) &&
-                                      averaging.edges[e].unconfirmed);
-      }
-      LOG(WARNING) << StringPrintf(
-          "Community %d leaves the merge: %s. Its images are offered to the "
-          "merged model.",
-          c,
-          result->community_judgements[c].broken ? "its model is broken"
-          : result->community_judgements[c].doubtful
-              ? (unconfirmed ? "nothing confirms its similarities and its "
-                               "model is in doubt"
-                             : "its similarities disagree with the other "
-                               "communities' and its model is in doubt")
-              : "its similarities disagree with the other communities' "
-                "and it is small");
-      if (!result->community_judgements[c].broken) {
-        set_aside_communities.push_back(c);
-        if (unconfirmed && result->community_judgements[c].doubtful) {
-          unconfirmed_communities->push_back(c);
-        }
-      }
-      models[c].reset();
+// here (their images are offered to the merged models). Those whose model
+// is not broken are set aside: they keep the images no merged model
+// registers (MergeParts). Those of them in doubt that left for want of a
+// link their shared images confirm (no evidence against their model,
+// unlike links that disagree: such a model may be bent) are unconfirmed:
+// their models may join as blocks.
+void CommunityMerge::SetAsideExcludedCommunities() {
+  const std::vector<RelativeSimilarity>& similarities =
+      similarities_.similarities;
+  for (int c = 0; c < static_cast<int>(models_.size()); ++c) {
+    if (!averaging_.excluded[c]) {
+      continue;
     }
+    bool unconfirmed = false;
+    for (size_t e = 0; e < similarities.size(); ++e) {
+      unconfirmed = unconfirmed || ((similarities[e].community1 == c ||
+                                     similarities[e].community2 == c) &&
+                                    averaging_.edges[e].unconfirmed);
+    }
+    const CommunityJudgement& judgement = result_.community_judgements[c];
+    LOG(WARNING) << StringPrintf(
+        "Community %d leaves the merge: %s. Its images are offered to the "
+        "merged model.",
+        c,
+        judgement.broken ? "its model is broken"
+        : judgement.doubtful
+            ? (unconfirmed ? "nothing confirms its similarities and its "
+                             "model is in doubt"
+                           : "its similarities disagree with the other "
+                             "communities' and its model is in doubt")
+            : "its similarities disagree with the other communities' and "
+              "it is small");
+    if (!judgement.broken) {
+      set_aside_communities_.push_back(c);
+      if (unconfirmed && judgement.doubtful) {
+        unconfirmed_communities_.push_back(c);
+      }
+    }
+    models_[c].reset();
   }
-  return set_aside_communities;
 }
 
-// Merges every part of the averaging (communities joined by kept
-// similarities) into one model (MergePart), largest parts first as the
-// averaging numbers them, each on the images no earlier part's model
-// registered plus those offered to it; a part left with fewer than two
-// images has no model, and a part of one community with nothing offered is
-// its model as it is. Then the set-aside communities keep, as models of
-// their own, the images no merged model registered (at least
-// Mapper.min_model_size of them). The models are consumed; the seconds
-// spent in the refinements are added to `refinement_seconds`.
-std::vector<std::shared_ptr<Reconstruction>> MergeParts(
-    const CommunityMergeOptions& options,
-    const CommunityImages& communities,
-    const std::vector<RelativeSimilarity>& similarities,
-    const SimilarityAveragingResult& averaging,
-    const PartOffers& offers,
-    const std::vector<int>& set_aside_communities,
-    const std::unordered_set<image_pair_t>& false_pairs,
-    const ViewGraph& view_graph,
-    const std::vector<std::string>& model_paths,
-    Models* models_ptr,
-    double* refinement_seconds) {
-  Models& models = *models_ptr;
-  const int num_communities = static_cast<int>(models.size());
+std::shared_ptr<Reconstruction> CommunityMerge::LeftModel(
+    const int c,
+    std::shared_ptr<Reconstruction> model,
+    const std::unordered_set<image_t>& taken_image_ids) const {
+  if (!model) {
+    model = std::make_shared<Reconstruction>();
+    model->Read(model_paths_[c]);
+  }
+  return RestrictToImages(
+      ImagesNotTaken(communities_.own_image_ids[c], taken_image_ids),
+      std::move(model));
+}
+
+// Every part of the averaging is merged into one model (MergePart),
+// largest parts first as the averaging numbers them, each on the images no
+// earlier part's model registered plus those offered to it; a part left
+// with fewer than two images has no model, and a part of one community
+// with nothing offered is its model as it is. Then the set-aside
+// communities keep, as models of their own, the images no merged model
+// registered (at least Mapper.min_model_size of them). The communities'
+// models are consumed.
+void CommunityMerge::MergeParts() {
+  THROW_CHECK_EQ(num_phases_done_, 2) << "AverageSimilarities() first";
+  const int num_communities = static_cast<int>(models_.size());
+  std::vector<bool> has_model(num_communities);
+  for (int c = 0; c < num_communities; ++c) {
+    has_model[c] = models_[c] != nullptr;
+  }
+  const PartOffers offers = PlanPartOffers(averaging_.part_of_community,
+                                           has_model,
+                                           cross_edges_,
+                                           unconfirmed_communities_);
   // By part: the names of the images offered to it.
   std::map<int, std::unordered_set<std::string>> extra_image_names_of_part;
   for (const auto& part_and_communities : offers.image_communities_of_part) {
     for (const int c : part_and_communities.second) {
-      for (const image_t image_id : communities.own_image_ids[c]) {
+      for (const image_t image_id : communities_.own_image_ids[c]) {
         extra_image_names_of_part[part_and_communities.first].insert(
-            communities.name_of_image.at(image_id));
+            communities_.name_of_image.at(image_id));
       }
     }
   }
   // The models written, and the images they registered (which later parts
   // and communities leave out).
-  std::vector<std::shared_ptr<Reconstruction>> merged_models;
+  std::vector<std::shared_ptr<Reconstruction>>& merged_models = result_.models;
   std::unordered_set<image_t> registered_image_ids;
   const auto keep_model = [&](std::shared_ptr<Reconstruction> model) {
     registered_image_ids.insert(model->RegImageIds().begin(),
                                 model->RegImageIds().end());
     merged_models.push_back(std::move(model));
   };
-  // Community c's model restricted to its own images that no earlier
-  // model registered: `model` (its copy in memory), or as its stage wrote
-  // it if null.
-  const auto left_model = [&](const int c,
-                              std::shared_ptr<Reconstruction> model) {
-    if (!model) {
-      model = std::make_shared<Reconstruction>();
-      model->Read(model_paths[c]);
-    }
-    return RestrictToImages(
-        ImagesNotTaken(communities.own_image_ids[c], registered_image_ids),
-        std::move(model));
-  };
-  for (int part = 0; part < averaging.NumParts(); ++part) {
+  for (int part = 0; part < averaging_.NumParts(); ++part) {
     std::vector<int> part_communities;
     size_t num_left_images = 0;
     for (int c = 0; c < num_communities; ++c) {
-      if (averaging.part_of_community[c] != part || !models[c]) {
+      if (averaging_.part_of_community[c] != part || !models_[c]) {
         continue;
       }
       part_communities.push_back(c);
       size_t num_taken = 0;
-      for (const image_t image_id : models[c]->RegImageIds()) {
-        if (communities.own_image_ids[c].count(image_id) == 0) {
+      for (const image_t image_id : models_[c]->RegImageIds()) {
+        if (communities_.own_image_ids[c].count(image_id) == 0) {
           continue;
         }
         if (registered_image_ids.count(image_id)) {
@@ -544,8 +411,8 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
       }
     }
     for (const image_t image_id : registered_image_ids) {
-      const auto it = communities.name_of_image.find(image_id);
-      if (it != communities.name_of_image.end()) {
+      const auto it = communities_.name_of_image.find(image_id);
+      if (it != communities_.name_of_image.end()) {
         extra_image_names_of_part[part].erase(it->second);
       }
     }
@@ -560,7 +427,7 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
           "it: no model for it.",
           part);
       for (const int c : part_communities) {
-        models[c].reset();
+        models_[c].reset();
       }
       continue;
     }
@@ -569,8 +436,9 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
     if (part_communities.size() == 1 &&
         extra_image_names_of_part[part].empty()) {
       const int c = part_communities[0];
-      std::shared_ptr<Reconstruction> model = left_model(c, models[c]);
-      models[c].reset();
+      std::shared_ptr<Reconstruction> model =
+          LeftModel(c, models_[c], registered_image_ids);
+      models_[c].reset();
       if (model->NumRegImages() < 2) {
         LOG(WARNING) << StringPrintf(
             "Community %d, alone in its part, registered fewer than 2 of its "
@@ -595,22 +463,15 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
       const auto offered = offers.model_communities_of_part.find(part);
       if (offered != offers.model_communities_of_part.end()) {
         for (const int c : offered->second) {
-          offered_models.push_back(left_model(c, models[c]));
+          offered_models.push_back(
+              LeftModel(c, models_[c], registered_image_ids));
         }
       }
       std::shared_ptr<Reconstruction> merged =
-          MergePart(options,
-                    part_communities,
-                    communities,
-                    similarities,
-                    averaging,
+          MergePart(part_communities,
                     extra_image_names_of_part[part],
                     registered_image_ids,
-                    false_pairs,
-                    view_graph,
-                    offered_models,
-                    &models,
-                    refinement_seconds);
+                    offered_models);
       if (merged->NumRegImages() < 2) {
         LOG(WARNING) << StringPrintf(
             "Part %d: its merged model holds fewer than 2 images: no model "
@@ -626,7 +487,7 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
                  << "; each of them is written as a model of its own.";
       for (const int c : part_communities) {
         std::shared_ptr<Reconstruction> model =
-            left_model(c, /*model=*/nullptr);
+            LeftModel(c, /*model=*/nullptr, registered_image_ids);
         if (model->NumRegImages() >= 2) {
           keep_model(std::move(model));
         }
@@ -637,10 +498,11 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
   // A community that left the merge keeps the images nobody registered as
   // a model of its own, if there are as many as the incremental mapper
   // keeps in a model (Mapper.min_model_size): it was in doubt or small.
-  for (const int c : set_aside_communities) {
-    std::shared_ptr<Reconstruction> model = left_model(c, /*model=*/nullptr);
+  for (const int c : set_aside_communities_) {
+    std::shared_ptr<Reconstruction> model =
+        LeftModel(c, /*model=*/nullptr, registered_image_ids);
     if (static_cast<int>(model->NumRegImages()) >=
-        options.incremental_options.min_model_size) {
+        options_.incremental_options.min_model_size) {
       LOG(INFO) << StringPrintf(
           "Community %d left the merge: %d of its images that no merged model "
           "registered keep its model, as a model of its own",
@@ -649,135 +511,188 @@ std::vector<std::shared_ptr<Reconstruction>> MergeParts(
       keep_model(std::move(model));
     }
   }
-
-  return merged_models;
-}
-
-}  // namespace
-
-bool CommunityMergeOptions::Check() const {
-  CHECK_OPTION_GT(min_num_matches, 0);
-  CHECK_OPTION(pairwise_similarity.Check());
-  CHECK_OPTION(covisibility_check.Check());
-  CHECK_OPTION_GE(rejected_link_max_drift_factor, 1.0);
-  CHECK_OPTION(judgement.Check());
-  CHECK_OPTION(similarity_averaging.Check());
-  CHECK_OPTION(refinement.Check());
-  CHECK_OPTION(incremental_options.Check());
-  return true;
-}
-
-CommunityMergeResult MergeCommunities(const CommunityMergeOptions& options,
-                                      const CommunityPlan& plan,
-                                      const CommunityWorkspace& workspace) {
-  THROW_CHECK(options.Check());
-  // The merge gives the same model from the same community models, whatever
-  // ran them and whichever thread merges.
-  SetPRNGSeed(kDefaultPRNGSeed);
-  CommunityMergeResult result;
-  PrintHeading2("Pairwise similarities and their averaging");
-  Timer timer;
-  timer.Start();
-
-  // One connection for the view graph and the cross edges' matches.
-  const Database database(options.database_path);
-  const ViewGraph view_graph =
-      ViewGraph::Read(database, options.min_num_matches, options.image_names);
-  result.num_view_graph_images = static_cast<int>(view_graph.NumVertices());
-  result.num_view_graph_edges = static_cast<int>(view_graph.NumEdges());
-  CommunityImages communities = GroupImagesByCommunity(view_graph, plan);
-  result.community_of_image = communities.community_of_image;
-
-  // The communities, as their stage left them on disk: the plan's, then the
-  // extra ones.
-  Models models;
-  std::vector<std::string> model_paths;
-  ReadCommunityModels(options,
-                      workspace,
-                      plan.NumCommunities(),
-                      &communities,
-                      &models,
-                      &model_paths,
-                      &result);
-  LogMemory("reading the community models");
-
-  const CrossEdges cross_edges =
-      GroupCrossEdges(view_graph, communities.community_of_image);
-  result.num_community_pairs = static_cast<int>(cross_edges.size());
-  const CommunitySimilarities community_similarities =
-      EstimateCommunitySimilarities(
-          database,
-          view_graph,
-          cross_edges,
-          std::vector<std::shared_ptr<const Reconstruction>>(models.begin(),
-                                                             models.end()),
-          options.pairwise_similarity,
-          options.covisibility_check,
-          options.incremental_options.num_threads);
-  const SimilarityAveragingResult averaging =
-      JudgeAndAverage(options, community_similarities, &result);
-  const std::vector<RelativeSimilarity>& similarities =
-      community_similarities.similarities;
-  const std::unordered_set<image_pair_t> false_pairs =
-      options.confirm_rejected_links
-          ? ConfirmRejectedLinks(community_similarities,
-                                 averaging,
-                                 options.similarity_averaging,
-                                 options.rejected_link_max_drift_factor)
-          : community_similarities.false_pairs;
-  if (!false_pairs.empty()) {
-    LOG(INFO) << StringPrintf(
-        "%d image pairs between communities support only rejected "
-        "transforms: the refinement leaves them out.",
-        static_cast<int>(false_pairs.size()));
-  }
-  // Communities that left the merge but whose models are not broken: the
-  // images the merged models do not register keep their community's model,
-  // as a model of its own (the incremental mapper too writes the models it
-  // could not join). Read again from the workspace at the end.
-  std::vector<int> unconfirmed_communities;
-  const std::vector<int> set_aside_communities = SetAsideExcludedCommunities(
-      similarities, averaging, &models, &unconfirmed_communities, &result);
-  result.averaging_seconds = timer.ElapsedSeconds();
-  LOG(INFO) << StringPrintf("Similarity averaging: %.3fs (%s)",
-                            result.averaging_seconds,
-                            ProcessMemoryToString(ReadProcessMemory()).c_str());
-
-  PrintHeading2("Joining the communities and bundle adjustment");
-  timer.Restart();
-  std::vector<bool> has_model(models.size());
-  for (size_t c = 0; c < models.size(); ++c) {
-    has_model[c] = models[c] != nullptr;
-  }
-  result.models = MergeParts(options,
-                             communities,
-                             similarities,
-                             averaging,
-                             PlanPartOffers(averaging.part_of_community,
-                                            has_model,
-                                            cross_edges,
-                                            unconfirmed_communities),
-                             set_aside_communities,
-                             false_pairs,
-                             view_graph,
-                             model_paths,
-                             &models,
-                             &result.refinement_seconds);
-  std::stable_sort(result.models.begin(),
-                   result.models.end(),
+  std::stable_sort(merged_models.begin(),
+                   merged_models.end(),
                    [](const std::shared_ptr<Reconstruction>& a,
                       const std::shared_ptr<Reconstruction>& b) {
                      return a->NumRegImages() > b->NumRegImages();
                    });
-  // The merge (joining the models, merging their points, loading the
-  // correspondences, colours) and the refinement (with the registration of
-  // left-over images, track completion and filtering) are reported apart.
-  result.merge_seconds = timer.ElapsedSeconds() - result.refinement_seconds;
-  LOG(INFO) << StringPrintf("Merge: %.3fs, final bundle adjustment: %.3fs (%s)",
-                            result.merge_seconds,
-                            result.refinement_seconds,
-                            ProcessMemoryToString(ReadProcessMemory()).c_str());
-  return result;
+  num_phases_done_ = 3;
+}
+
+// Joins the communities of one part (connected by kept similarities) into
+// one model in the global frame, merges their corresponding points and
+// refines the result on the part's own images plus `extra_image_names`
+// (images of communities without a model or that left the merge, and of
+// parts offered to this one, which the refinement tries to register). Own
+// images in `taken_image_ids` (registered by an earlier part's model) are
+// left out. `offered_models` are the models (their own images only) of the
+// communities of parts offered to this one and of those offered to it
+// that left the merge for want of a confirmed link, which the refinement
+// registers as blocks where it can. The communities' own models are
+// consumed. Adds the seconds spent in the refinement to the result's.
+std::shared_ptr<Reconstruction> CommunityMerge::MergePart(
+    const std::vector<int>& part_communities,
+    const std::unordered_set<std::string>& extra_image_names,
+    const std::unordered_set<image_t>& taken_image_ids,
+    const std::vector<std::shared_ptr<const Reconstruction>>& offered_models) {
+  LOG(INFO) << "Merging communities" << [&] {
+    std::string ids;
+    for (const int c : part_communities) ids += " " + std::to_string(c);
+    return ids;
+  }();
+  std::vector<Reconstruction*> part_models;
+  std::vector<Sim3d> world_from_community;
+  std::vector<std::unordered_set<image_t>> owned_image_ids;
+  std::unordered_set<std::string> part_image_names = extra_image_names;
+  std::map<int, size_t> index_in_part;
+  std::unordered_map<image_t, int> community_of_image;
+  for (const int c : part_communities) {
+    for (const image_t image_id : communities_.own_image_ids[c]) {
+      community_of_image.emplace(image_id, c);
+    }
+    index_in_part.emplace(c, part_models.size());
+    part_models.push_back(models_[c].get());
+    world_from_community.push_back(averaging_.world_from_community[c]);
+    owned_image_ids.push_back(
+        ImagesNotTaken(communities_.own_image_ids[c], taken_image_ids));
+    for (const image_t image_id : owned_image_ids.back()) {
+      part_image_names.insert(communities_.name_of_image.at(image_id));
+    }
+  }
+  // An image left without any pair (all contradicting the merge) cannot be
+  // refined: it stays out. (The view graph tells, before the models are
+  // joined and released, which images the correspondences will hold.)
+  std::unordered_set<image_t> connected_image_ids;
+  for (const ViewGraph::Edge& edge : view_graph_->Edges()) {
+    const image_t image_id1 = view_graph_->ImageIds()[edge.vertex1];
+    const image_t image_id2 = view_graph_->ImageIds()[edge.vertex2];
+    if (part_image_names.count(view_graph_->ImageNames()[edge.vertex1]) &&
+        part_image_names.count(view_graph_->ImageNames()[edge.vertex2]) &&
+        !false_pairs_.count(Database::ImagePairToPairId(image_id1, image_id2))) {
+      connected_image_ids.insert(image_id1);
+      connected_image_ids.insert(image_id2);
+    }
+  }
+  for (std::unordered_set<image_t>& image_ids : owned_image_ids) {
+    for (auto it = image_ids.begin(); it != image_ids.end();) {
+      if (connected_image_ids.count(*it)) {
+        ++it;
+      } else {
+        LOG(WARNING) << "Image " << communities_.name_of_image.at(*it)
+                     << " has no image pair left in the merged model; it is "
+                        "left out.";
+        it = image_ids.erase(it);
+      }
+    }
+  }
+  auto merged = std::make_shared<Reconstruction>();
+  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
+  JoinReconstructions(part_models,
+                      world_from_community,
+                      owned_image_ids,
+                      merged.get(),
+                      &point3D_ids);
+  for (const int c : part_communities) {
+    models_[c].reset();  // Joined: the community's copy is not needed.
+  }
+  ReleaseFreedMemory();
+
+  std::vector<std::pair<point3D_t, point3D_t>> corresponding_points;
+  for (size_t e = 0; e < similarities_.similarities.size(); ++e) {
+    if (!averaging_.edges[e].kept ||
+        averaging_.part_of_community[similarities_.similarities[e].community1] !=
+            averaging_.part_of_community[part_communities[0]]) {
+      continue;
+    }
+    const auto& ids1 =
+        point3D_ids[index_in_part.at(similarities_.similarities[e].community1)];
+    const auto& ids2 =
+        point3D_ids[index_in_part.at(similarities_.similarities[e].community2)];
+    for (const auto& pair : similarities_.similarities[e].point3D_ids) {
+      const auto it1 = ids1.find(pair.first);
+      const auto it2 = ids2.find(pair.second);
+      if (it1 != ids1.end() && it2 != ids2.end()) {
+        corresponding_points.emplace_back(it1->second, it2->second);
+      }
+    }
+  }
+  const size_t num_merged_points =
+      MergeCorrespondingPoints(corresponding_points, merged.get());
+  LOG(INFO) << StringPrintf(
+      "Joined %d images and %d points; merged %d corresponding points",
+      static_cast<int>(merged->NumRegImages()),
+      static_cast<int>(merged->NumPoints3D()),
+      static_cast<int>(num_merged_points));
+  LogMemory("joining the models");
+
+  // The correspondences, once the communities' models are released and
+  // the joined cameras aligned (MergedModelRefiner).
+  const auto load_correspondences = [&]() {
+    std::shared_ptr<DatabaseCache> database_cache;
+    {
+      const Database database(options_.database_path);
+      database_cache = DatabaseCache::Create(
+          database,
+          static_cast<size_t>(options_.min_num_matches),
+          options_.incremental_options.ignore_watermarks,
+          part_image_names,
+          [this](const image_t image_id1, const image_t image_id2) {
+            return false_pairs_.count(
+                       Database::ImagePairToPairId(image_id1, image_id2)) == 0;
+          });
+    }
+    // Building the correspondence graph grows a vector per keypoint and
+    // then flattens them; the freed vectors would stay resident through the
+    // refinement (see ReleaseFreedMemory).
+    ReleaseFreedMemory();
+    for (const image_t image_id : merged->RegImageIds()) {
+      THROW_CHECK(database_cache->ExistsImage(image_id))
+          << "image " << merged->Image(image_id).Name()
+          << " has no correspondences";
+    }
+    LogMemory("loading the correspondences");
+    return std::shared_ptr<const DatabaseCache>(std::move(database_cache));
+  };
+
+  Timer timer;
+  timer.Start();
+  const MergedModelRefinementSummary refinement =
+      MergedModelRefiner(options_.refinement,
+                         options_.incremental_options,
+                         load_correspondences,
+                         community_of_image,
+                         offered_models,
+                         merged)
+          .Run();
+  result_.refinement_seconds += timer.ElapsedSeconds();
+  LogMemory("the refinement");
+  LOG(INFO) << StringPrintf(
+      "Merged model: %d images, %d points, mean reprojection error %.3f px "
+      "(%.3f px before refinement), %d images newly registered (%d as "
+      "blocks), %d misplaced ones registered again",
+      static_cast<int>(merged->NumRegImages()),
+      static_cast<int>(merged->NumPoints3D()),
+      refinement.final_mean_reprojection_error,
+      refinement.initial_mean_reprojection_error,
+      refinement.num_newly_registered_images,
+      refinement.num_block_registered_images,
+      refinement.num_reregistered_images);
+  if (options_.incremental_options.extract_colors) {
+    merged->ExtractColorsForAllImages(options_.image_path);
+  }
+  return merged;
+}
+
+
+CommunityMergeResult MergeCommunities(const CommunityMergeOptions& options,
+                                      const CommunityPlan& plan,
+                                      const CommunityWorkspace& workspace) {
+  CommunityMerge merge(options, plan, workspace);
+  merge.EstimateSimilarities();
+  merge.AverageSimilarities();
+  merge.MergeParts();
+  return merge.Result();
 }
 
 }  // namespace colmap

@@ -25,7 +25,9 @@
 //     so no image is written in two models.
 #pragma once
 
+#include "colmap_ext/graph/view_graph.h"
 #include "colmap_ext/scene/community_workspace.h"
+#include "colmap_ext/sfm/community_alignment.h"
 #include "colmap_ext/sfm/community_judgement.h"
 #include "colmap_ext/sfm/community_merger.h"
 #include "colmap_ext/sfm/covisibility_check.h"
@@ -121,16 +123,106 @@ struct CommunityMergeResult {
   int num_community_pairs = 0;
   int num_estimated_similarities = 0;
   int num_kept_similarities = 0;
-  // Seconds: the similarities and their averaging; joining the models
-  // (with the correspondences' loading and colours); their refinement.
-  double averaging_seconds = 0.0;
-  double merge_seconds = 0.0;
+  // Seconds of MergeParts() spent in the refinement of the merged models
+  // (the rest joined the models, merged their points, loaded the
+  // correspondences and the colours).
   double refinement_seconds = 0.0;
 };
 
-// Merges the communities of `plan`, whose models and records are in
-// `workspace` (every community of the plan must have its record). Throws
-// where the database or a model cannot be read.
+// The own images of every community: the plan's, then those of the extra
+// communities that the merge adds.
+struct CommunityImages {
+  std::vector<std::unordered_set<image_t>> own_image_ids;
+  std::unordered_map<image_t, std::string> name_of_image;
+  std::unordered_map<image_t, int> community_of_image;
+};
+
+// The merge in three phases, which must run in this order (the controller
+// times them apart):
+//
+//   CommunityMerge merge(options, plan, workspace);
+//   merge.EstimateSimilarities();
+//   merge.AverageSimilarities();
+//   merge.MergeParts();
+//   const CommunityMergeResult& result = merge.Result();
+//
+// Every community of the plan must have its record in `workspace`. A phase
+// throws where the database or a model cannot be read.
+class CommunityMerge {
+ public:
+  CommunityMerge(const CommunityMergeOptions& options,
+                 const CommunityPlan& plan,
+                 const CommunityWorkspace& workspace);
+
+  // Reads the view graph and the communities' models as their stage wrote
+  // them (with the extra communities), and estimates the similarity of
+  // every two communities that view-graph edges join, checked against which
+  // images were matched (community_alignment.h).
+  void EstimateSimilarities();
+
+  // Judges every community's own model (a broken one leaves the merge, one
+  // in doubt counts little), averages the similarities into one per
+  // community and keeps the links that agree with it (similarity_averaging.h);
+  // confirms rejected links the averaging places within their bounds
+  // (link_confirmation.h). Communities that left are set aside.
+  void AverageSimilarities();
+
+  // Joins the communities of every part into one model, merges their
+  // corresponding points and refines it (MergedModelRefiner), largest part
+  // first; the images of smaller parts and of communities that left are
+  // offered to the larger part's refinement. Set-aside communities keep the
+  // images no merged model registered as models of their own.
+  void MergeParts();
+
+  // What the merge did; its models once MergeParts() ran.
+  const CommunityMergeResult& Result() const { return result_; }
+
+ private:
+  void ReadCommunityModels();
+  void SetAsideExcludedCommunities();
+  // Community c's model restricted to its own images that no model in
+  // `taken_image_ids` registered: `model` (its copy in memory), or as its
+  // stage wrote it if null.
+  std::shared_ptr<Reconstruction> LeftModel(
+      int c,
+      std::shared_ptr<Reconstruction> model,
+      const std::unordered_set<image_t>& taken_image_ids) const;
+  std::shared_ptr<Reconstruction> MergePart(
+      const std::vector<int>& part_communities,
+      const std::unordered_set<std::string>& extra_image_names,
+      const std::unordered_set<image_t>& taken_image_ids,
+      const std::vector<std::shared_ptr<const Reconstruction>>&
+          offered_models);
+
+  const CommunityMergeOptions options_;
+  const CommunityPlan plan_;
+  const CommunityWorkspace workspace_;
+
+  // EstimateSimilarities(): the view graph, the communities' images, models
+  // (null where a community has none or has been consumed) and their paths,
+  // the view-graph edges between communities and the similarities.
+  std::unique_ptr<ViewGraph> view_graph_;
+  CommunityImages communities_;
+  std::vector<std::shared_ptr<Reconstruction>> models_;
+  std::vector<std::string> model_paths_;
+  CrossEdges cross_edges_;
+  CommunitySimilarities similarities_;
+
+  // AverageSimilarities(): the placement and links kept, the image pairs
+  // the refinement leaves out, the communities that left the merge whose
+  // models are not broken (set aside), and those of them that left for want
+  // of a confirmed link (unconfirmed), which may join as blocks.
+  SimilarityAveragingResult averaging_;
+  std::unordered_set<image_pair_t> false_pairs_;
+  std::vector<int> set_aside_communities_;
+  std::vector<int> unconfirmed_communities_;
+
+  CommunityMergeResult result_;
+  // How many of the three phases ran.
+  int num_phases_done_ = 0;
+};
+
+// The three phases of CommunityMerge in one call.
 CommunityMergeResult MergeCommunities(const CommunityMergeOptions& options,
                                       const CommunityPlan& plan,
                                       const CommunityWorkspace& workspace);

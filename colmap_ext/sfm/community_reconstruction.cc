@@ -5,10 +5,12 @@
 #include "colmap_ext/util/process_memory.h"
 
 #include "colmap/math/random.h"
+#include "colmap/scene/database.h"
 #include "colmap/scene/reconstruction_manager.h"
 #include "colmap/util/logging.h"
 
 #include <algorithm>
+#include <unordered_map>
 
 namespace colmap {
 
@@ -72,6 +74,29 @@ CommunityReconstruction ReconstructCommunityModels(
     result.other_models.assign(models.begin() + 1, models.end());
   }
   return result;
+}
+
+double OwnCameraFraction(const std::string& database_path,
+                         const std::unordered_set<std::string>& image_names,
+                         std::mutex* database_mutex) {
+  std::vector<Image> images;
+  RetryDatabaseAccessOrThrow(database_path, [&]() {
+    std::lock_guard<std::mutex> lock(*database_mutex);
+    images = Database(database_path).ReadAllImages();
+  });
+  std::unordered_map<camera_t, int> num_images_of_camera;
+  for (const Image& image : images) {
+    ++num_images_of_camera[image.CameraId()];
+  }
+  int num_own = 0;
+  int num_found = 0;
+  for (const Image& image : images) {
+    if (image_names.count(image.Name()) > 0) {
+      ++num_found;
+      num_own += num_images_of_camera.at(image.CameraId()) == 1 ? 1 : 0;
+    }
+  }
+  return num_found == 0 ? 0.0 : static_cast<double>(num_own) / num_found;
 }
 
 }  // namespace colmap

@@ -26,6 +26,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <unordered_set>
 #include <vector>
 
 namespace colmap {
@@ -45,5 +46,15 @@ CommunityReconstruction ReconstructCommunityModels(
     const std::string& image_path,
     const std::string& database_path,
     std::mutex* database_mutex);
+
+// The fraction of `image_names` (those in the database) whose camera no
+// other image of the database uses: where most have one, the community is
+// reconstructed with the mapper's own adjustments (community_mapper.h). The
+// reading is tried again while another process holds the database
+// (database_retry.h), as the community's loading is: a community's settings
+// must not depend on whether the database was locked a moment.
+double OwnCameraFraction(const std::string& database_path,
+                         const std::unordered_set<std::string>& image_names,
+                         std::mutex* database_mutex);
 
 }  // namespace colmap

@@ -121,5 +121,35 @@ TEST_F(ReconstructCommunityTest, NoImagesWithMatchesGivesNoModel) {
   EXPECT_EQ(result.num_models, 0);
 }
 
+TEST(OwnCameraFraction, CountsTheImagesWhoseCameraNoOtherImageUses) {
+  const std::string database_path =
+      JoinPaths(CreateTestFolder(), "database.db");
+  std::unordered_set<std::string> image_names;
+  {
+    Database database(database_path);
+    const camera_t shared_camera_id = database.WriteCamera(
+        Camera::CreateFromModelId(1, SimplePinholeCameraModel::model_id, 1, 1, 1));
+    for (int i = 0; i < 4; ++i) {
+      Image image;
+      image.SetName("image" + std::to_string(i));
+      image.SetCameraId(
+          i < 3 ? shared_camera_id
+                : database.WriteCamera(Camera::CreateFromModelId(
+                      1, SimplePinholeCameraModel::model_id, 1, 1, 1)));
+      database.WriteImage(image);
+      image_names.insert(image.Name());
+    }
+  }
+  std::mutex database_mutex;
+  // One image of four has a camera of its own; names not in the database
+  // do not count.
+  image_names.insert("not_in_the_database");
+  EXPECT_EQ(OwnCameraFraction(database_path, image_names, &database_mutex),
+            0.25);
+  EXPECT_EQ(OwnCameraFraction(database_path, {"image3"}, &database_mutex), 1.0);
+  EXPECT_EQ(OwnCameraFraction(database_path, {"image0"}, &database_mutex), 0.0);
+  EXPECT_EQ(OwnCameraFraction(database_path, {}, &database_mutex), 0.0);
+}
+
 }  // namespace
 }  // namespace colmap
