@@ -63,6 +63,7 @@ For every scene the methods run one after another on the very same database:
   - hierarchical:  colmap hierarchical_mapper, with its defaults
   - hier_fair:     colmap hierarchical_mapper --leaf_max_num_images set to the
                    community mapper's median community size
+  - global:        colmap global_mapper (COLMAP 4's global SfM, GLOMAP)
 Each run is measured with /usr/bin/time (wall, CPU, peak resident memory)
 and evaluated by build/model_evaluator against the ground truth. Results:
 a Markdown table on stdout and in OUT/results.md (headed by the command
@@ -83,7 +84,7 @@ without mapper on the large scene, where it takes hours); ratios to a method
 not run are n/a.
 
 `--seeds 0,1,2` runs every method once per seed of COLMAP's random number
-generator (`--random_seed`: the RANSAC samples of every registration and
+generator (`--default_random_seed`: the RANSAC samples of every registration and
 two-view estimate; 0 is COLMAP's default), the first seed's runs in
 OUT/SCENE/ as without it, the others' in OUT/SCENE/seedS/. On a few hundred
 real photographs two runs of one method differing in the seed alone differ
@@ -93,7 +94,9 @@ line per scene gives each method's median over the seeds with its range and
 on how many seeds the bar's checks held.
 
 `--draws N robustness` runs every robustness family (loop, chain and dense,
-each `_clean` and `_noisy`: FAMILIES below) as N draws, scene seeds 1..N,
+each `_clean`, `_noisy` with random wrong matches and `_epipolar` with wrong
+matches that satisfy their pair's geometry, as a real matcher's: FAMILIES
+below) as N draws, scene seeds 1..N,
 and gives one table: community_mapper against the mapper on every draw, and
 per family on how many draws it had one model where the mapper has one,
 every image the mapper registers, a median error at most 1.5x and no worse
@@ -157,9 +160,14 @@ SCENES = {
                   max_viewing_distance=90, seed=4),
 }
 # The robustness families: each kind of generated scene small enough to be
-# drawn many times (--draws), clean and with noisy matches.
+# drawn many times (--draws), clean, with noisy matches (random wrong
+# matches among the verified ones, which a real verification would mostly
+# have rejected, and false pairs), and with a real matcher's noise (wrong
+# matches that satisfy their pair's epipolar geometry, and false pairs).
 CLEAN = dict(outlier_match_ratio=0, num_false_pairs=0)
 NOISY = dict(outlier_match_ratio=0.03, num_false_pairs=30)
+EPIPOLAR = dict(outlier_match_ratio=0.03, num_false_pairs=30,
+                epipolar_outliers=1)
 FAMILIES = {
     "loop": dict(num_clusters=3, num_images_per_cluster=40,
                  num_images_per_link=30, close_loop=1),
@@ -173,6 +181,7 @@ FAMILIES = {
 for family, knobs in FAMILIES.items():
     SCENES[family + "_clean"] = dict(knobs, **CLEAN)
     SCENES[family + "_noisy"] = dict(knobs, **NOISY)
+    SCENES[family + "_epipolar"] = dict(knobs, **EPIPOLAR)
 # Realism shared by all generated scenes (a scene's own knobs win).
 COMMON = dict(keypoint_noise=0.7, outlier_match_ratio=0.05,
               num_false_pairs=20, seed=3)
@@ -247,18 +256,20 @@ GROUPS = {
     "sb_sequences": ["sbseq5", "sbseq10", "sbseq20"],
     "strecha_split": ["castle_split", "herzjesu_split"],
     "robustness": [family + suffix for family in FAMILIES
-                   for suffix in ("_clean", "_noisy")],
+                   for suffix in ("_clean", "_noisy", "_epipolar")],
 }
 
-METHODS = ["mapper", "community", "hierarchical", "hier_fair"]
+METHODS = ["mapper", "community", "hierarchical", "hier_fair", "global"]
 LABELS = {
     "mapper": "colmap mapper",
     "community": "colmap community_mapper",
     "hierarchical": "colmap hierarchical_mapper (defaults)",
     "hier_fair": "colmap hierarchical_mapper (leaf = median community)",
+    "global": "colmap global_mapper",
 }
 COLORS = {"mapper": "tab:blue", "community": "tab:red",
-          "hierarchical": "tab:green", "hier_fair": "tab:olive"}
+          "hierarchical": "tab:green", "hier_fair": "tab:olive",
+          "global": "tab:purple"}
 PHASES = ["Partition", "Communities", "Pairwise similarities",
           "Similarity averaging", "Merge",
           "Final bundle adjustment"]
@@ -600,7 +611,7 @@ def run_methods(name, scene_dir, database, images, ground_truth, num_images,
         shutil.rmtree(run_dir, ignore_errors=True)
         os.makedirs(run_dir)
         common = ["--database_path", database, "--image_path", images,
-                  "--output_path", run_dir, "--random_seed", str(seed)]
+                  "--output_path", run_dir, "--default_random_seed", str(seed)]
         if method == "mapper":
             command = [COLMAP, "mapper"] + common + \
                 ["--Mapper.num_threads", str(threads)]
@@ -609,6 +620,8 @@ def run_methods(name, scene_dir, database, images, ground_truth, num_images,
                 REAL.get(name, {}).get("community_flags", [])
         elif method == "hierarchical":
             command = [COLMAP, "hierarchical_mapper"] + common
+        elif method == "global":
+            command = [COLMAP, "global_mapper"] + common
         else:
             # Without a partition there is no fair leaf size: use the
             # hierarchical mapper's own default.
@@ -1100,7 +1113,7 @@ def main():
                         "generated view graph of N images (e.g. 100000; "
                         "build/partition_benchmark)")
     parser.add_argument("--seeds", default="0",
-                        help="comma-separated PRNG seeds (--random_seed): "
+                        help="comma-separated PRNG seeds (--default_random_seed): "
                         "every method runs once per seed (default: 0, "
                         "COLMAP's default)")
     parser.add_argument("--methods", default=",".join(METHODS),

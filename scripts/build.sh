@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Configures (first time) and builds COLMAP 3.10 with colmap_ext into build/.
+# Configures (first time) and builds COLMAP 4.1.1 with colmap_ext into build/.
 # The binary is build/colmap. Incremental: a second run rebuilds only what
 # changed (ccache keeps COLMAP's objects across clean builds too).
 set -euo pipefail

@@ -75,7 +75,7 @@ def check_seeds():
         for method in ("mapper", "community"):
             log = open(os.path.join(path, method + ".log")).read()
             # /usr/bin/time -v logs the command it ran.
-            assert f"--random_seed {seed}" in log, (path, method)
+            assert f"--default_random_seed {seed}" in log, (path, method)
             assert os.path.isdir(os.path.join(path, method, "0")), path
     table = open(os.path.join(out, "results.md")).read()
     for text in ("colmap mapper, seed 7", "Over the seeds 3,7",

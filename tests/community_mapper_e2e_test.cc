@@ -7,8 +7,11 @@
 #include "colmap_ext/scene/model_evaluation.h"
 #include "colmap_ext/util/testing.h"
 
-#include "colmap/util/misc.h"
+#include "colmap/scene/reconstruction.h"
+#include "colmap/util/file.h"
+#include "colmap/util/logging.h"
 
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <regex>
@@ -16,22 +19,22 @@
 #include <sstream>
 #include <vector>
 
-#include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
 
 namespace colmap {
 namespace {
 
 struct Scene {
-  std::string path;
-  std::string DatabasePath() const { return JoinPaths(path, "database.db"); }
-  std::string ImagePath() const { return JoinPaths(path, "images"); }
-  std::string GroundTruthPath() const {
-    return JoinPaths(path, "ground_truth");
+  std::filesystem::path path;
+  std::filesystem::path DatabasePath() const { return path / "database.db"; }
+  std::filesystem::path ImagePath() const { return path / "images"; }
+  std::filesystem::path GroundTruthPath() const {
+    return path / "ground_truth";
   }
 };
 
-Scene GenerateScene(const std::string& path, const std::string& arguments) {
+Scene GenerateScene(const std::filesystem::path& path,
+                    const std::string& arguments) {
   std::string output;
   const int status =
       RunCommand(std::string(SCENE_GENERATOR_BINARY) + " --output_path " +
@@ -45,7 +48,7 @@ Scene GenerateScene(const std::string& path, const std::string& arguments) {
 // its exit status.
 int RunMapper(const std::string& command,
               const Scene& scene,
-              const std::string& output_path,
+              const std::filesystem::path& output_path,
               std::string* log,
               const std::string& extra_flags = "") {
   return RunCommand(std::string(COLMAP_BINARY) + " " + command +
@@ -56,7 +59,7 @@ int RunMapper(const std::string& command,
                     log);
 }
 
-std::map<std::string, int> ReadClusters(const std::string& path) {
+std::map<std::string, int> ReadClusters(const std::filesystem::path& path) {
   std::map<std::string, int> clusters;
   std::ifstream file(path);
   std::string line;
@@ -71,7 +74,7 @@ std::map<std::string, int> ReadClusters(const std::string& path) {
   return clusters;
 }
 
-std::string ReadFile(const std::string& path) {
+std::string ReadFile(const std::filesystem::path& path) {
   std::ifstream file(path);
   std::stringstream text;
   text << file.rdbuf();
@@ -79,16 +82,17 @@ std::string ReadFile(const std::string& path) {
 }
 
 // The models a run wrote into `output_path` (0/, 1/, ...), in order.
-std::vector<std::string> ModelPaths(const std::string& output_path) {
-  std::vector<std::string> paths;
-  while (ExistsDir(JoinPaths(output_path, std::to_string(paths.size())))) {
-    paths.push_back(JoinPaths(output_path, std::to_string(paths.size())));
+std::vector<std::filesystem::path> ModelPaths(
+    const std::filesystem::path& output_path) {
+  std::vector<std::filesystem::path> paths;
+  while (ExistsDir(output_path / std::to_string(paths.size()))) {
+    paths.push_back(output_path / std::to_string(paths.size()));
   }
   return paths;
 }
 
-ModelEvaluation Evaluate(const std::string& model_path,
-                         const std::string& ground_truth_path) {
+ModelEvaluation Evaluate(const std::filesystem::path& model_path,
+                         const std::filesystem::path& ground_truth_path) {
   Reconstruction model;
   model.Read(model_path);
   Reconstruction ground_truth;
@@ -102,15 +106,16 @@ class CommunityMapperEndToEnd : public ::testing::Test {
   // a loop by walkways of 20 images each (150 images), with keypoint noise,
   // 5% wrong matches in verified pairs and 10 falsely verified pairs.
   static void SetUpTestSuite() {
-    const std::string root = JoinPaths(
-        ::testing::TempDir(), "colmap_ext_tests", "CommunityMapperEndToEnd");
-    boost::filesystem::remove_all(root);
+    const std::filesystem::path root =
+        std::filesystem::path(::testing::TempDir()) / "colmap_ext_tests" /
+        "CommunityMapperEndToEnd";
+    std::filesystem::remove_all(root);
     scene_ = new Scene(GenerateScene(
-        JoinPaths(root, "scene"),
+        root / "scene",
         "--num_clusters 3 --num_images_per_cluster 30 "
         "--num_images_per_link 20 --keypoint_noise 0.7 "
         "--outlier_match_ratio 0.05 --num_false_pairs 10 --seed 11"));
-    output_path_ = new std::string(JoinPaths(root, "sparse"));
+    output_path_ = new std::filesystem::path(root / "sparse");
     log_ = new std::string;
     status_ = RunMapper("community_mapper", *scene_, *output_path_, log_);
   }
@@ -122,13 +127,13 @@ class CommunityMapperEndToEnd : public ::testing::Test {
   }
 
   static Scene* scene_;
-  static std::string* output_path_;
+  static std::filesystem::path* output_path_;
   static std::string* log_;
   static int status_;
 };
 
 Scene* CommunityMapperEndToEnd::scene_ = nullptr;
-std::string* CommunityMapperEndToEnd::output_path_ = nullptr;
+std::filesystem::path* CommunityMapperEndToEnd::output_path_ = nullptr;
 std::string* CommunityMapperEndToEnd::log_ = nullptr;
 int CommunityMapperEndToEnd::status_ = -1;
 
@@ -145,9 +150,9 @@ TEST_F(CommunityMapperEndToEnd, Succeeds) {
 TEST_F(CommunityMapperEndToEnd, PartitionRecoversTheClusters) {
   ASSERT_EQ(status_, 0);
   const std::unordered_map<std::string, int> communities =
-      ReadCommunities(JoinPaths(*output_path_, "communities.txt"));
+      ReadCommunities(*output_path_ / "communities.txt");
   const std::map<std::string, int> clusters =
-      ReadClusters(JoinPaths(scene_->path, "clusters.txt"));
+      ReadClusters(scene_->path / "clusters.txt");
   // Every image once (ReadCommunities rejects duplicates).
   EXPECT_EQ(communities.size(), clusters.size());
   std::map<int, int> num_communities;
@@ -192,14 +197,14 @@ TEST_F(CommunityMapperEndToEnd, PartitionRecoversTheClusters) {
 TEST_F(CommunityMapperEndToEnd, ImageListRestrictsTheRun) {
   ASSERT_EQ(status_, 0);
   // Every image but those of the third landmark cluster.
-  const std::string root = *output_path_ + "_listed";
+  const std::filesystem::path root = output_path_->string() + "_listed";
   CreateDirIfNotExists(root);
-  const std::string list_path = JoinPaths(root, "images.txt");
+  const std::filesystem::path list_path = root / "images.txt";
   std::set<std::string> listed;
   {
     std::ofstream list(list_path);
     for (const auto& name_and_cluster :
-         ReadClusters(JoinPaths(scene_->path, "clusters.txt"))) {
+         ReadClusters(scene_->path / "clusters.txt")) {
       if (name_and_cluster.second != 2) {
         listed.insert(name_and_cluster.first);
         list << name_and_cluster.first << "\n";
@@ -207,7 +212,7 @@ TEST_F(CommunityMapperEndToEnd, ImageListRestrictsTheRun) {
     }
   }
   ASSERT_GE(listed.size(), 100);
-  const std::string out = JoinPaths(root, "sparse");
+  const std::filesystem::path out = root / "sparse";
   std::string log;
   ASSERT_EQ(RunMapper("community_mapper",
                       *scene_,
@@ -219,14 +224,14 @@ TEST_F(CommunityMapperEndToEnd, ImageListRestrictsTheRun) {
   // The partition and the model hold listed images only, the model nearly
   // all of them.
   const std::unordered_map<std::string, int> communities =
-      ReadCommunities(JoinPaths(out, "communities.txt"));
+      ReadCommunities(out / "communities.txt");
   EXPECT_EQ(communities.size(), listed.size());
   for (const auto& name_and_community : communities) {
     EXPECT_EQ(listed.count(name_and_community.first), 1)
         << name_and_community.first;
   }
   Reconstruction model;
-  model.Read(JoinPaths(out, "0"));
+  model.Read(out / "0");
   EXPECT_GE(model.NumRegImages(), 0.95 * listed.size());
   for (const image_t image_id : model.RegImageIds()) {
     EXPECT_EQ(listed.count(model.Image(image_id).Name()), 1)
@@ -235,7 +240,7 @@ TEST_F(CommunityMapperEndToEnd, ImageListRestrictsTheRun) {
   // The project file reproduces the run: the plan fits and is reused.
   ASSERT_EQ(RunCommand(std::string(COLMAP_BINARY) +
                            " community_mapper --project_path " +
-                           ShellQuote(JoinPaths(out, "project.ini")),
+                           ShellQuote(out / "project.ini"),
                        &log),
             0)
       << log;
@@ -261,9 +266,9 @@ TEST_F(CommunityMapperEndToEnd, ImageListRestrictsTheRun) {
 
 TEST_F(CommunityMapperEndToEnd, OneAccurateModel) {
   ASSERT_EQ(status_, 0);
-  const std::string model_path = JoinPaths(*output_path_, "0");
-  ASSERT_TRUE(ExistsFile(JoinPaths(model_path, "cameras.bin")));
-  EXPECT_FALSE(ExistsDir(JoinPaths(*output_path_, "1")));
+  const std::filesystem::path model_path = *output_path_ / "0";
+  ASSERT_TRUE(ExistsFile(model_path / "cameras.bin"));
+  EXPECT_FALSE(ExistsDir(*output_path_ / "1"));
 
   const ModelEvaluation evaluation =
       Evaluate(model_path, scene_->GroundTruthPath());
@@ -282,19 +287,19 @@ TEST_F(CommunityMapperEndToEnd, WritesWhatUsersOpen) {
   ASSERT_EQ(status_, 0);
   // Each community's own model.
   const std::unordered_map<std::string, int> communities =
-      ReadCommunities(JoinPaths(*output_path_, "communities.txt"));
+      ReadCommunities(*output_path_ / "communities.txt");
   int num_communities = 0;
   for (const auto& entry : communities) {
     num_communities = std::max(num_communities, entry.second + 1);
   }
   for (int c = 0; c < num_communities; ++c) {
     Reconstruction community;
-    community.Read(JoinPaths(*output_path_, "communities", std::to_string(c)));
+    community.Read(*output_path_ / "communities" / std::to_string(c));
     EXPECT_GT(community.NumRegImages(), 0);
   }
   // The camera centres coloured by community.
   Reconstruction model;
-  model.Read(JoinPaths(*output_path_, "0"));
+  model.Read(*output_path_ / "0");
   // Every point is in front of the cameras that observe it and within the
   // mapper's reprojection error bound (--Mapper.filter_max_reproj_error 4),
   // as after the incremental mapper: what model_analyzer and the GUI show.
@@ -306,19 +311,19 @@ TEST_F(CommunityMapperEndToEnd, WritesWhatUsersOpen) {
           << point3D.first;
     }
   }
-  const std::string ply = ReadFile(JoinPaths(*output_path_, "communities.ply"));
+  const std::string ply = ReadFile(*output_path_ / "communities.ply");
   EXPECT_NE(
       ply.find("element vertex " + std::to_string(model.NumRegImages()) + "\n"),
       std::string::npos);
   // The options, COLMAP's and ours.
-  const std::string ini = ReadFile(JoinPaths(*output_path_, "project.ini"));
+  const std::string ini = ReadFile(*output_path_ / "project.ini");
   EXPECT_NE(ini.find("database_path="), std::string::npos);
   EXPECT_NE(ini.find("[Mapper]"), std::string::npos);
   EXPECT_NE(ini.find("[CommunityMapper]"), std::string::npos);
   EXPECT_NE(ini.find("modularity_threshold=0.3"), std::string::npos);
   // Nothing temporary is left.
   for (const auto& entry :
-       boost::filesystem::directory_iterator(*output_path_)) {
+       std::filesystem::directory_iterator(*output_path_)) {
     EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos)
         << entry.path();
   }
@@ -328,12 +333,12 @@ TEST_F(CommunityMapperEndToEnd, ColmapToolsReadTheModel) {
   ASSERT_EQ(status_, 0);
   std::string output;
   EXPECT_EQ(RunCommand(std::string(COLMAP_BINARY) + " model_analyzer --path " +
-                           ShellQuote(JoinPaths(*output_path_, "0")),
+                           ShellQuote(*output_path_ / "0"),
                        &output),
             0)
       << output;
   Reconstruction model;
-  model.Read(JoinPaths(*output_path_, "0"));
+  model.Read(*output_path_ / "0");
   EXPECT_NE(output.find("Registered images: " +
                         std::to_string(model.NumRegImages()) + "\n"),
             std::string::npos)
@@ -344,15 +349,15 @@ TEST_F(CommunityMapperEndToEnd, ProjectFileReproducesTheRun) {
   ASSERT_EQ(status_, 0);
   // The saved project, pointed at another folder and given to the
   // partitioner, gives the same partition.
-  std::string project = ReadFile(JoinPaths(*output_path_, "project.ini"));
-  const std::string rerun = *output_path_ + "-rerun";
-  boost::filesystem::remove_all(rerun);
+  std::string project = ReadFile(*output_path_ / "project.ini");
+  const std::filesystem::path rerun = output_path_->string() + "-rerun";
+  std::filesystem::remove_all(rerun);
   const size_t output_line = project.find("output_path=");
   ASSERT_NE(output_line, std::string::npos);
   project.replace(output_line,
                   project.find('\n', output_line) - output_line,
-                  "output_path=" + rerun);
-  const std::string ini_path = *output_path_ + "-rerun.ini";
+                  "output_path=" + rerun.string());
+  const std::filesystem::path ini_path = output_path_->string() + "-rerun.ini";
   std::ofstream(ini_path) << project;
 
   std::string output;
@@ -363,9 +368,9 @@ TEST_F(CommunityMapperEndToEnd, ProjectFileReproducesTheRun) {
                  &output),
       0)
       << output;
-  EXPECT_EQ(ReadCommunities(JoinPaths(rerun, "communities.txt")),
-            ReadCommunities(JoinPaths(*output_path_, "communities.txt")));
-  EXPECT_FALSE(ExistsDir(JoinPaths(rerun, "0")));
+  EXPECT_EQ(ReadCommunities(rerun / "communities.txt"),
+            ReadCommunities(*output_path_ / "communities.txt"));
+  EXPECT_FALSE(ExistsDir(rerun / "0"));
 }
 
 // A scene without community structure: one cluster of cameras around one
@@ -374,18 +379,18 @@ TEST_F(CommunityMapperEndToEnd, ProjectFileReproducesTheRun) {
 // halves that two workers reconstruct, and the result is as good as the
 // incremental mapper's.
 TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
-  const std::string test_dir = CreateTestFolder();
+  const std::filesystem::path test_dir = CreateTestFolder();
   const Scene scene = GenerateScene(
-      JoinPaths(test_dir, "scene"),
+      test_dir / "scene",
       "--num_clusters 1 --num_images_per_cluster 50 --keypoint_noise 0.7 "
       "--seed 12");
 
-  const std::string community_path = JoinPaths(test_dir, "community");
+  const std::filesystem::path community_path = test_dir / "community";
   std::string log;
   ASSERT_EQ(RunMapper("community_mapper", scene, community_path, &log), 0)
       << log;
   const std::unordered_map<std::string, int> communities =
-      ReadCommunities(JoinPaths(community_path, "communities.txt"));
+      ReadCommunities(community_path / "communities.txt");
   EXPECT_EQ(communities.size(), 50);
   std::map<int, int> sizes;
   for (const auto& entry : communities) {
@@ -395,16 +400,16 @@ TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
   EXPECT_NE(log.find("split (more than its share of the component)"),
             std::string::npos)
       << log;
-  EXPECT_FALSE(ExistsDir(JoinPaths(community_path, "1")));
+  EXPECT_FALSE(ExistsDir(community_path / "1"));
 
-  const std::string mapper_path = JoinPaths(test_dir, "mapper");
+  const std::filesystem::path mapper_path = test_dir / "mapper";
   CreateDirIfNotExists(mapper_path);
   ASSERT_EQ(RunMapper("mapper", scene, mapper_path, &log), 0) << log;
 
   const ModelEvaluation community =
-      Evaluate(JoinPaths(community_path, "0"), scene.GroundTruthPath());
+      Evaluate(community_path / "0", scene.GroundTruthPath());
   const ModelEvaluation mapper =
-      Evaluate(JoinPaths(mapper_path, "0"), scene.GroundTruthPath());
+      Evaluate(mapper_path / "0", scene.GroundTruthPath());
   // At least as many images as the mapper registers (equality would also
   // fail where the mapper, whose threads make each run differ, registers
   // fewer).
@@ -421,9 +426,9 @@ TEST(CommunityMapperWithoutStructure, MatchesColmapMapper) {
 
 // Two landmark clusters of 30 images joined by 20: two communities joined
 // by one similarity, for the refinement's variants below.
-Scene TwoClusterScene(const std::string& test_dir) {
+Scene TwoClusterScene(const std::filesystem::path& test_dir) {
   return GenerateScene(
-      JoinPaths(test_dir, "scene"),
+      test_dir / "scene",
       "--num_clusters 2 --num_images_per_cluster 30 --num_images_per_link 20 "
       "--keypoint_noise 0.7 --seed 13");
 }
@@ -432,10 +437,10 @@ Scene TwoClusterScene(const std::string& test_dir) {
 // released and loaded again after each (the default): the same model as
 // with them held through the refinement, as the incremental mapper does.
 TEST(CommunityMapperReloadCorrespondences, SameModelAsHoldingThem) {
-  const std::string test_dir = CreateTestFolder();
+  const std::filesystem::path test_dir = CreateTestFolder();
   const Scene scene = TwoClusterScene(test_dir);
   std::string log;
-  const std::string held_path = JoinPaths(test_dir, "held");
+  const std::filesystem::path held_path = test_dir / "held";
   ASSERT_EQ(RunMapper("community_mapper",
                       scene,
                       held_path,
@@ -453,7 +458,7 @@ TEST(CommunityMapperReloadCorrespondences, SameModelAsHoldingThem) {
     return n;
   };
   EXPECT_EQ(count(log, "Memory after loading the correspondences"), 1) << log;
-  const std::string reloaded_path = JoinPaths(test_dir, "reloaded");
+  const std::filesystem::path reloaded_path = test_dir / "reloaded";
   ASSERT_EQ(RunMapper("community_mapper", scene, reloaded_path, &log), 0)
       << log;
   // Loaded again after every round's adjustment.
@@ -462,10 +467,10 @@ TEST(CommunityMapperReloadCorrespondences, SameModelAsHoldingThem) {
       << log;
 
   const ModelEvaluation held =
-      Evaluate(JoinPaths(held_path, "0"), scene.GroundTruthPath());
+      Evaluate(held_path / "0", scene.GroundTruthPath());
   const ModelEvaluation reloaded =
-      Evaluate(JoinPaths(reloaded_path, "0"), scene.GroundTruthPath());
-  EXPECT_FALSE(ExistsDir(JoinPaths(reloaded_path, "1")));
+      Evaluate(reloaded_path / "0", scene.GroundTruthPath());
+  EXPECT_FALSE(ExistsDir(reloaded_path / "1"));
   EXPECT_EQ(reloaded.num_registered_images, held.num_registered_images);
   ASSERT_TRUE(held.aligned);
   ASSERT_TRUE(reloaded.aligned);
@@ -479,27 +484,27 @@ TEST(CommunityMapperReloadCorrespondences, SameModelAsHoldingThem) {
 // Two landmarks that no camera links: two view-graph components, so two
 // models, largest first, each image in exactly one.
 TEST(CommunityMapperComponents, EachComponentIsItsOwnModel) {
-  const std::string test_dir = CreateTestFolder();
+  const std::filesystem::path test_dir = CreateTestFolder();
   const Scene scene = GenerateScene(
-      JoinPaths(test_dir, "scene"),
+      test_dir / "scene",
       "--num_clusters 2 --num_images_per_cluster 25 --num_images_per_link 0 "
       "--close_loop 0 --keypoint_noise 0.5 --seed 13");
-  const std::string output_path = JoinPaths(test_dir, "sparse");
+  const std::filesystem::path output_path = test_dir / "sparse";
   std::string log;
   ASSERT_EQ(RunMapper("community_mapper", scene, output_path, &log), 0) << log;
   EXPECT_NE(log.find("2 connected component(s)"), std::string::npos) << log;
 
   Reconstruction model0;
-  model0.Read(JoinPaths(output_path, "0"));
+  model0.Read(output_path / "0");
   Reconstruction model1;
-  model1.Read(JoinPaths(output_path, "1"));
-  EXPECT_FALSE(ExistsDir(JoinPaths(output_path, "2")));
+  model1.Read(output_path / "1");
+  EXPECT_FALSE(ExistsDir(output_path / "2"));
   EXPECT_GE(model0.NumRegImages(), model1.NumRegImages());
   EXPECT_GE(model1.NumRegImages(), 24);
   EXPECT_GE(model0.NumRegImages() + model1.NumRegImages(), 48);
   for (const image_t image_id : model1.RegImageIds()) {
     EXPECT_FALSE(model0.ExistsImage(image_id) &&
-                 model0.IsImageRegistered(image_id))
+                 model0.Image(image_id).HasPose())
         << model1.Image(image_id).Name();
   }
   EXPECT_NE(log.find("in 2 model(s)"), std::string::npos) << log;
@@ -507,10 +512,11 @@ TEST(CommunityMapperComponents, EachComponentIsItsOwnModel) {
 
 // Runs community_mapper on the suite's scene with `flags`, into a folder of
 // the current test; returns the output folder.
-std::string RunOnSuiteScene(const Scene& scene,
-                            const std::string& flags,
-                            std::string* log) {
-  const std::string output_path = JoinPaths(CreateTestFolder(), "sparse");
+std::filesystem::path RunOnSuiteScene(const Scene& scene,
+                                      const std::string& flags,
+                                      std::string* log) {
+  const std::filesystem::path output_path =
+      std::filesystem::path(CreateTestFolder()) / "sparse";
   THROW_CHECK_EQ(RunMapper("community_mapper", scene, output_path, log, flags),
                  0)
       << *log;
@@ -525,21 +531,21 @@ std::string RunOnSuiteScene(const Scene& scene,
 // the merged model.
 TEST_F(CommunityMapperEndToEnd, ImagesOfAnUnjoinedPartJoinTheLargerModel) {
   std::string log;
-  const std::string output_path = RunOnSuiteScene(
+  const std::filesystem::path output_path = RunOnSuiteScene(
       *scene_, "--CommunityMapper.pairwise_min_num_inliers 1000000", &log);
   EXPECT_NE(log.find("of an offered community model as one block"),
             std::string::npos)
       << log;
-  const std::string summary = ReadFile(JoinPaths(output_path, "summary.txt"));
+  const std::string summary = ReadFile(output_path / "summary.txt");
   ASSERT_NE(summary.find("num_kept_similarities 0\n"), std::string::npos)
       << summary;
   ASSERT_EQ(summary.find("num_communities 1\n"), std::string::npos) << summary;
   EXPECT_NE(log.find("its images are offered to part 0's refinement"),
             std::string::npos)
       << log;
-  EXPECT_FALSE(ExistsDir(JoinPaths(output_path, "1"))) << summary;
+  EXPECT_FALSE(ExistsDir(output_path / "1")) << summary;
   const ModelEvaluation evaluation =
-      Evaluate(JoinPaths(output_path, "0"), scene_->GroundTruthPath());
+      Evaluate(output_path / "0", scene_->GroundTruthPath());
   EXPECT_GE(evaluation.num_registered_images, 147) << summary;
   EXPECT_LT(evaluation.median_position_error, 1e-3 * evaluation.extent);
   EXPECT_LT(evaluation.p90_position_error, 2e-3 * evaluation.extent);
@@ -550,13 +556,13 @@ TEST_F(CommunityMapperEndToEnd, ImagesOfAnUnjoinedPartJoinTheLargerModel) {
 // transform that stacks one tower on the other. Folding them into one model
 // would be wrong: two models, each of one landmark.
 TEST(CommunityMapperRepeatedStructure, IdenticalTowersAreNotStacked) {
-  const std::string test_dir = CreateTestFolder();
+  const std::filesystem::path test_dir = CreateTestFolder();
   const Scene scene = GenerateScene(
-      JoinPaths(test_dir, "scene"),
+      test_dir / "scene",
       "--num_clusters 2 --num_images_per_cluster 40 --num_images_per_link 0 "
       "--num_repeated_structure_pairs 40 --keypoint_noise 0.7 "
       "--outlier_match_ratio 0.03 --seed 2");
-  const std::string output_path = JoinPaths(test_dir, "sparse");
+  const std::filesystem::path output_path = test_dir / "sparse";
   std::string log;
   ASSERT_EQ(RunMapper("community_mapper", scene, output_path, &log), 0) << log;
   // One view-graph component: only the check of the alignment keeps the
@@ -577,10 +583,11 @@ TEST(CommunityMapperRepeatedStructure, IdenticalTowersAreNotStacked) {
   EXPECT_LT(num_verified_close, 0.1 * num_predicted_close);
 
   const std::map<std::string, int> clusters =
-      ReadClusters(JoinPaths(scene.path, "clusters.txt"));
+      ReadClusters(scene.path / "clusters.txt");
   int num_registered = 0;
-  const std::vector<std::string> model_paths = ModelPaths(output_path);
-  for (const std::string& model_path : model_paths) {
+  const std::vector<std::filesystem::path> model_paths =
+      ModelPaths(output_path);
+  for (const std::filesystem::path& model_path : model_paths) {
     Reconstruction model;
     model.Read(model_path);
     std::set<int> model_clusters;
@@ -604,21 +611,21 @@ TEST(CommunityMapperRepeatedStructure, IdenticalTowersAreNotStacked) {
 // transform is rejected, the next one (the walkway's) is used, and the loop
 // closes into one accurate model.
 TEST(CommunityMapperRepeatedStructure, TrueLinksWinOverIdenticalTowers) {
-  const std::string test_dir = CreateTestFolder();
+  const std::filesystem::path test_dir = CreateTestFolder();
   const Scene scene = GenerateScene(
-      JoinPaths(test_dir, "scene"),
+      test_dir / "scene",
       "--num_clusters 3 --num_images_per_cluster 40 --num_images_per_link 25 "
       "--num_repeated_structure_pairs 40 --keypoint_noise 0.7 "
       "--outlier_match_ratio 0.03 --num_false_pairs 10 --seed 2");
-  const std::string output_path = JoinPaths(test_dir, "sparse");
+  const std::filesystem::path output_path = test_dir / "sparse";
   std::string log;
   ASSERT_EQ(RunMapper("community_mapper", scene, output_path, &log), 0) << log;
   EXPECT_NE(log.find("inliers rejected: co-visible pairs verified"),
             std::string::npos)
       << log;
-  EXPECT_FALSE(ExistsDir(JoinPaths(output_path, "1")));
+  EXPECT_FALSE(ExistsDir(output_path / "1"));
   const ModelEvaluation evaluation =
-      Evaluate(JoinPaths(output_path, "0"), scene.GroundTruthPath());
+      Evaluate(output_path / "0", scene.GroundTruthPath());
   EXPECT_EQ(evaluation.num_registered_images,
             evaluation.num_ground_truth_images);
   ASSERT_TRUE(evaluation.aligned);

@@ -14,16 +14,18 @@
 
 #include "colmap/geometry/sim3.h"
 #include "colmap/scene/database.h"
-#include "colmap/util/misc.h"
+#include "colmap/util/file.h"
+#include "colmap/util/logging.h"
+#include "colmap/util/types.h"
 
 #include <algorithm>
 #include <chrono>
+#include <filesystem>
 #include <fstream>
 #include <regex>
 #include <sstream>
 #include <thread>
 
-#include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
 
 namespace colmap {
@@ -38,9 +40,10 @@ class CommunityMapperStages : public ::testing::Test {
   // Three landmark clusters of 24 images joined in a loop by walkways of 20
   // (132 images), reconstructed once in one process.
   static void SetUpTestSuite() {
-    root_ = new std::string(JoinPaths(
-        ::testing::TempDir(), "colmap_ext_tests", "CommunityMapperStages"));
-    boost::filesystem::remove_all(*root_);
+    root_ = new std::filesystem::path(
+        std::filesystem::path(::testing::TempDir()) / "colmap_ext_tests" /
+        "CommunityMapperStages");
+    std::filesystem::remove_all(*root_);
     std::string output;
     THROW_CHECK_EQ(
         RunCommand(std::string(SCENE_GENERATOR_BINARY) + " --output_path " +
@@ -60,61 +63,62 @@ class CommunityMapperStages : public ::testing::Test {
     delete one_go_log_;
   }
 
-  static std::string ScenePath() { return JoinPaths(*root_, "scene"); }
-  static std::string DatabasePath() {
-    return JoinPaths(ScenePath(), "database.db");
+  static std::filesystem::path ScenePath() { return *root_ / "scene"; }
+  static std::filesystem::path DatabasePath() {
+    return ScenePath() / "database.db";
   }
-  static std::string OneGoPath() { return JoinPaths(*root_, "one-go"); }
+  static std::filesystem::path OneGoPath() { return *root_ / "one-go"; }
 
   // `colmap COMMAND` on the scene's database with the suite's options.
   static std::string Command(const std::string& command,
-                             const std::string& output_path,
-                             const std::string& database_path = "") {
+                             const std::filesystem::path& output_path,
+                             const std::filesystem::path& database_path = {}) {
     return std::string(COLMAP_BINARY) + " " + command + " --database_path " +
            ShellQuote(database_path.empty() ? DatabasePath() : database_path) +
-           " --image_path " + ShellQuote(JoinPaths(ScenePath(), "images")) +
+           " --image_path " + ShellQuote(ScenePath() / "images") +
            " --output_path " + ShellQuote(output_path) + kOptions;
   }
 
   // A stage after the partition, with the options of OUT's project.
   static std::string StageCommand(const std::string& command,
-                                  const std::string& output_path) {
+                                  const std::filesystem::path& output_path) {
     return std::string(COLMAP_BINARY) + " " + command + " --project_path " +
-           ShellQuote(JoinPaths(output_path, "project.ini"));
+           ShellQuote(output_path / "project.ini");
   }
 
-  static int NumCommunities(const std::string& output_path) {
-    return CommunityPlanFromText(
-               ReadTextFile(JoinPaths(output_path, "plan.txt")))
+  static int NumCommunities(const std::filesystem::path& output_path) {
+    return CommunityPlanFromText(ReadTextFile(output_path / "plan.txt"))
         .NumCommunities();
   }
 
   // `model` aligned to the one-process run's model 0.
-  static ModelEvaluation CompareWithOneGo(const std::string& model_path) {
+  static ModelEvaluation CompareWithOneGo(
+      const std::filesystem::path& model_path) {
     Reconstruction model;
     model.Read(model_path);
     Reconstruction one_go;
-    one_go.Read(JoinPaths(OneGoPath(), "0"));
+    one_go.Read(OneGoPath() / "0");
     ModelEvaluation evaluation = EvaluateModel(model, one_go);
     evaluation.num_ground_truth_images =
         static_cast<int>(one_go.NumRegImages());
     return evaluation;
   }
 
-  static ModelEvaluation CompareWithGroundTruth(const std::string& model_path) {
+  static ModelEvaluation CompareWithGroundTruth(
+      const std::filesystem::path& model_path) {
     Reconstruction model;
     model.Read(model_path);
     Reconstruction ground_truth;
-    ground_truth.Read(JoinPaths(ScenePath(), "ground_truth"));
+    ground_truth.Read(ScenePath() / "ground_truth");
     return EvaluateModel(model, ground_truth);
   }
 
-  static std::string* root_;
+  static std::filesystem::path* root_;
   static std::string* one_go_log_;
   static int one_go_status_;
 };
 
-std::string* CommunityMapperStages::root_ = nullptr;
+std::filesystem::path* CommunityMapperStages::root_ = nullptr;
 std::string* CommunityMapperStages::one_go_log_ = nullptr;
 int CommunityMapperStages::one_go_status_ = -1;
 
@@ -122,15 +126,15 @@ TEST_F(CommunityMapperStages, SeparateStagesGiveTheOneProcessModel) {
   ASSERT_EQ(one_go_status_, 0) << *one_go_log_;
   // The comparison is worth something: one model of nearly every image.
   const ModelEvaluation one_go =
-      CompareWithGroundTruth(JoinPaths(OneGoPath(), "0"));
+      CompareWithGroundTruth(OneGoPath() / "0");
   EXPECT_GE(one_go.num_registered_images,
             0.95 * one_go.num_ground_truth_images);
-  const std::string out = JoinPaths(*root_, "stages");
+  const std::filesystem::path out = *root_ / "stages";
   std::string log;
   ASSERT_EQ(RunCommand(Command("community_partitioner", out), &log), 0) << log;
-  EXPECT_EQ(ReadCommunities(JoinPaths(out, "communities.txt")),
-            ReadCommunities(JoinPaths(OneGoPath(), "communities.txt")));
-  EXPECT_FALSE(ExistsDir(JoinPaths(out, "communities")));
+  EXPECT_EQ(ReadCommunities(out / "communities.txt"),
+            ReadCommunities(OneGoPath() / "communities.txt"));
+  EXPECT_FALSE(ExistsDir(out / "communities"));
   const int num_communities = NumCommunities(out);
   ASSERT_GE(num_communities, 2);
   // In reverse order, each as its own process, as a scheduler might.
@@ -141,17 +145,16 @@ TEST_F(CommunityMapperStages, SeparateStagesGiveTheOneProcessModel) {
               0)
         << log;
     EXPECT_TRUE(
-        ExistsFile(JoinPaths(out, "communities", std::to_string(c) + ".done")));
+        ExistsFile(out / "communities" / (std::to_string(c) + ".done")));
   }
   ASSERT_EQ(RunCommand(StageCommand("community_merger", out), &log), 0) << log;
 
-  const ModelEvaluation comparison = CompareWithOneGo(JoinPaths(out, "0"));
+  const ModelEvaluation comparison = CompareWithOneGo(out / "0");
   EXPECT_EQ(comparison.num_registered_images,
             comparison.num_ground_truth_images);
   ASSERT_TRUE(comparison.aligned);
   EXPECT_LT(comparison.max_position_error, 1e-6 * comparison.extent);
-  EXPECT_EQ(ExistsDir(JoinPaths(out, "1")),
-            ExistsDir(JoinPaths(OneGoPath(), "1")));
+  EXPECT_EQ(ExistsDir(out / "1"), ExistsDir(OneGoPath() / "1"));
 
   // A rerun community stage reuses its record.
   ASSERT_EQ(RunCommand(StageCommand("community_reconstructor", out) +
@@ -164,8 +167,8 @@ TEST_F(CommunityMapperStages, SeparateStagesGiveTheOneProcessModel) {
 
 TEST_F(CommunityMapperStages, KilledRunResumesWithTheSameResult) {
   ASSERT_EQ(one_go_status_, 0) << *one_go_log_;
-  const std::string out = JoinPaths(*root_, "killed");
-  const std::string first_log = JoinPaths(*root_, "killed.log");
+  const std::filesystem::path out = *root_ / "killed";
+  const std::filesystem::path first_log = *root_ / "killed.log";
   // Started in the background and killed (SIGKILL) once its first community
   // has its record.
   std::string pid_text;
@@ -188,7 +191,7 @@ TEST_F(CommunityMapperStages, KilledRunResumesWithTheSameResult) {
   // naming the first.
   std::string second_log;
   EXPECT_NE(RunCommand(Command("community_mapper", out), &second_log), 0);
-  EXPECT_NE(second_log.find("Another run is writing " + out),
+  EXPECT_NE(second_log.find("Another run is writing " + out.string()),
             std::string::npos)
       << second_log;
   EXPECT_NE(second_log.find("process " + std::to_string(pid) + " on host"),
@@ -206,13 +209,13 @@ TEST_F(CommunityMapperStages, KilledRunResumesWithTheSameResult) {
   }
   ASSERT_LT(static_cast<int>(finished.size()), NumCommunities(out))
       << "the run finished every community before it was killed";
-  EXPECT_FALSE(ExistsDir(JoinPaths(out, "0")));
+  EXPECT_FALSE(ExistsDir(out / "0"));
 
   // The killed run's lock is taken over.
   std::string log;
   ASSERT_EQ(RunCommand(Command("community_mapper", out), &log), 0) << log;
   EXPECT_NE(log.find("Taking over the lock"), std::string::npos) << log;
-  EXPECT_FALSE(ExistsFile(JoinPaths(out, "lock")));
+  EXPECT_FALSE(ExistsFile(out / "lock"));
   // The summary counts the view graph's images on a reused plan too.
   const std::smatch registered = [&log] {
     std::smatch match;
@@ -233,16 +236,16 @@ TEST_F(CommunityMapperStages, KilledRunResumesWithTheSameResult) {
             std::string::npos)
       << log;
 
-  const ModelEvaluation resumed = CompareWithGroundTruth(JoinPaths(out, "0"));
+  const ModelEvaluation resumed = CompareWithGroundTruth(out / "0");
   const ModelEvaluation one_go =
-      CompareWithGroundTruth(JoinPaths(OneGoPath(), "0"));
+      CompareWithGroundTruth(OneGoPath() / "0");
   EXPECT_EQ(resumed.num_registered_images, one_go.num_registered_images);
   ASSERT_TRUE(resumed.aligned);
   EXPECT_LT(resumed.median_position_error,
             1.2 * one_go.median_position_error + 1e-4 * one_go.extent);
   // Nothing temporary is left.
-  for (const auto& entry : boost::filesystem::recursive_directory_iterator(
-           JoinPaths(out, "communities"))) {
+  for (const auto& entry :
+       std::filesystem::recursive_directory_iterator(out / "communities")) {
     EXPECT_EQ(entry.path().string().find(".tmp-"), std::string::npos)
         << entry.path();
   }
@@ -250,7 +253,7 @@ TEST_F(CommunityMapperStages, KilledRunResumesWithTheSameResult) {
 
 TEST_F(CommunityMapperStages, StagesRefuseWhatDoesNotFitThePlan) {
   ASSERT_EQ(one_go_status_, 0) << *one_go_log_;
-  const std::string out = JoinPaths(*root_, "refusals");
+  const std::filesystem::path out = *root_ / "refusals";
   std::string log;
 
   // No plan yet.
@@ -259,7 +262,7 @@ TEST_F(CommunityMapperStages, StagesRefuseWhatDoesNotFitThePlan) {
   EXPECT_FALSE(ExistsDir(out));
 
   ASSERT_EQ(RunCommand(Command("community_partitioner", out), &log), 0) << log;
-  const std::string plan = ReadTextFile(JoinPaths(out, "plan.txt"));
+  const std::string plan = ReadTextFile(out / "plan.txt");
 
   // Another modularity threshold.
   EXPECT_NE(RunCommand(Command("community_reconstructor", out) +
@@ -270,7 +273,7 @@ TEST_F(CommunityMapperStages, StagesRefuseWhatDoesNotFitThePlan) {
   EXPECT_NE(log.find("CommunityMapper.modularity_threshold is 0.4"),
             std::string::npos)
       << log;
-  EXPECT_FALSE(ExistsDir(JoinPaths(out, "communities")));
+  EXPECT_FALSE(ExistsDir(out / "communities"));
 
   // A community outside the plan.
   EXPECT_NE(RunCommand(StageCommand("community_reconstructor", out) +
@@ -283,19 +286,19 @@ TEST_F(CommunityMapperStages, StagesRefuseWhatDoesNotFitThePlan) {
   EXPECT_NE(log.find("--community_id is missing"), std::string::npos) << log;
 
   // A changed database: one verified pair fewer.
-  const std::string changed = JoinPaths(*root_, "changed.db");
-  boost::filesystem::copy_file(
+  const std::filesystem::path changed = *root_ / "changed.db";
+  std::filesystem::copy_file(
       DatabasePath(),
       changed,
-      boost::filesystem::copy_options::overwrite_existing);
+      std::filesystem::copy_options::overwrite_existing);
   {
-    Database database(changed);
-    std::vector<std::pair<image_t, image_t>> image_pairs;
-    std::vector<int> num_inliers;
-    database.ReadTwoViewGeometryNumInliers(&image_pairs, &num_inliers);
-    ASSERT_FALSE(image_pairs.empty());
-    database.DeleteInlierMatches(image_pairs.back().first,
-                                 image_pairs.back().second);
+    const std::shared_ptr<Database> database = Database::Open(changed);
+    const std::vector<std::pair<image_pair_t, int>> num_inliers =
+        database->ReadTwoViewGeometryNumInliers();
+    ASSERT_FALSE(num_inliers.empty());
+    const auto [image_id1, image_id2] =
+        PairIdToImagePair(num_inliers.back().first);
+    database->DeleteInlierMatches(image_id1, image_id2);
   }
   EXPECT_NE(RunCommand(Command("community_mapper", out, changed), &log), 0);
   EXPECT_NE(log.find("other images or verified pairs"), std::string::npos)
@@ -314,12 +317,12 @@ TEST_F(CommunityMapperStages, StagesRefuseWhatDoesNotFitThePlan) {
     missing += (missing.empty() ? "" : ", ") + std::to_string(c);
   }
   EXPECT_NE(log.find("have not been reconstructed (no record in " +
-                     JoinPaths(out, "communities") + "): " + missing),
+                     (out / "communities").string() + "): " + missing),
             std::string::npos)
       << log;
-  EXPECT_FALSE(ExistsDir(JoinPaths(out, "0")));
+  EXPECT_FALSE(ExistsDir(out / "0"));
   // Nothing refused changed the plan.
-  EXPECT_EQ(ReadTextFile(JoinPaths(out, "plan.txt")), plan);
+  EXPECT_EQ(ReadTextFile(out / "plan.txt"), plan);
 }
 
 // The images the merged models' refinements registered anew, by the log.
@@ -344,7 +347,7 @@ int NumNewlyRegistered(const std::string& log) {
 TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
   ASSERT_EQ(one_go_status_, 0) << *one_go_log_;
   const CommunityPlan plan =
-      CommunityPlanFromText(ReadTextFile(JoinPaths(OneGoPath(), "plan.txt")));
+      CommunityPlanFromText(ReadTextFile(OneGoPath() / "plan.txt"));
   const CommunityWorkspace one_go(OneGoPath());
   Reconstruction community;
   community.Read(one_go.CommunityModelPath(0));
@@ -383,7 +386,7 @@ TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
   int num_second_own = 0;
   for (const std::string& name : plan.communities[0].own_image_names) {
     const Image* image = second->FindImageWithName(name);
-    num_second_own += image != nullptr && image->IsRegistered() &&
+    num_second_own += image != nullptr && image->HasPose() &&
                               !first_ids.count(image->ImageId())
                           ? 1
                           : 0;
@@ -396,13 +399,12 @@ TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
   const auto merge = [&](const std::string& name,
                          const bool keep_second,
                          const std::string& flags = "") {
-    const std::string out = JoinPaths(*root_, name);
+    const std::filesystem::path out = *root_ / name;
     const CommunityWorkspace workspace(out);
-    boost::filesystem::remove_all(out);
-    boost::filesystem::create_directories(workspace.CommunitiesDir());
+    std::filesystem::remove_all(out);
+    std::filesystem::create_directories(workspace.CommunitiesDir());
     for (const char* file : {"plan.txt", "communities.txt"}) {
-      boost::filesystem::copy_file(JoinPaths(OneGoPath(), file),
-                                   JoinPaths(out, file));
+      std::filesystem::copy_file(OneGoPath() / file, out / file);
     }
     for (int c = 0; c < plan.NumCommunities(); ++c) {
       CommunityRecord record =
@@ -443,11 +445,11 @@ TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
             std::string::npos)
       << log;
   const ModelEvaluation merged =
-      CompareWithGroundTruth(JoinPaths(*root_, "second-model", "0"));
+      CompareWithGroundTruth(*root_ / "second-model" / "0");
   const ModelEvaluation reference =
-      CompareWithGroundTruth(JoinPaths(OneGoPath(), "0"));
+      CompareWithGroundTruth(OneGoPath() / "0");
   EXPECT_GE(merged.num_registered_images, reference.num_registered_images);
-  EXPECT_FALSE(ExistsDir(JoinPaths(*root_, "second-model", "1")));
+  EXPECT_FALSE(ExistsDir(*root_ / "second-model" / "1"));
   ASSERT_TRUE(merged.aligned);
   EXPECT_LT(merged.median_position_error,
             1.5 * reference.median_position_error + 1e-4 * reference.extent);
@@ -464,20 +466,20 @@ TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
   // this process, with that setting).
   merge("second-model-unconfirmed", /*keep_second=*/true);
   CommunityMergeOptions options;
-  options.database_path = DatabasePath();
+  options.database_path = DatabasePath().string();
   options.incremental_options.num_threads = 1;
   options.similarity_averaging.min_num_shared_images_on_bridge = 1000;
   const CommunityMergeResult unconfirmed_result = MergeCommunities(
       options,
       plan,
-      CommunityWorkspace(JoinPaths(*root_, "second-model-unconfirmed")));
+      CommunityWorkspace(*root_ / "second-model-unconfirmed"));
   const int extra = plan.NumCommunities();
   ASSERT_GT(unconfirmed_result.community_excluded.size(), extra);
   EXPECT_TRUE(unconfirmed_result.community_excluded[extra]);
   EXPECT_TRUE(unconfirmed_result.community_judgements[extra].doubtful);
   ASSERT_EQ(unconfirmed_result.models.size(), 1);
-  const std::string unconfirmed_path =
-      JoinPaths(*root_, "second-model-unconfirmed", "0");
+  const std::filesystem::path unconfirmed_path =
+      *root_ / "second-model-unconfirmed" / "0";
   WriteReconstructionAtomically(*unconfirmed_result.models[0],
                                 unconfirmed_path);
   const ModelEvaluation unconfirmed = CompareWithGroundTruth(unconfirmed_path);

@@ -8,51 +8,54 @@
 #include "colmap_ext/scene/model_evaluation.h"
 #include "colmap_ext/util/testing.h"
 
-#include "colmap/util/misc.h"
+#include "colmap/util/file.h"
+#include "colmap/util/logging.h"
+#include "colmap/util/string.h"
 #include "colmap/util/timer.h"
 
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <regex>
 #include <set>
 
-#include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
 
 namespace colmap {
 namespace {
 
-std::string DatasetPath(const std::string& name) {
-  return JoinPaths(SHARED_DATA_DIR, "strecha", name);
+std::filesystem::path DatasetPath(const std::string& name) {
+  return std::filesystem::path(SHARED_DATA_DIR) / "strecha" / name;
 }
 
 // Extracts and matches once per data set; returns the database path.
-std::string PrepareDatabase(const std::string& name) {
-  const std::string dir =
-      JoinPaths(::testing::TempDir(), "colmap_ext_tests", "RealData", name);
-  const std::string database = JoinPaths(dir, "database.db");
-  const std::string done = JoinPaths(dir, "matched");
+std::filesystem::path PrepareDatabase(const std::string& name) {
+  const std::filesystem::path dir =
+      std::filesystem::path(::testing::TempDir()) / "colmap_ext_tests" /
+      "RealData" / name;
+  const std::filesystem::path database = dir / "database.db";
+  const std::filesystem::path done = dir / "matched";
   if (ExistsFile(done)) {
     return database;
   }
-  boost::filesystem::remove_all(dir);
+  std::filesystem::remove_all(dir);
   CreateDirIfNotExists(dir, /*recursive=*/true);
   std::string output;
   THROW_CHECK_EQ(
       RunCommand(std::string(COLMAP_BINARY) +
                      " feature_extractor --database_path " +
                      ShellQuote(database) + " --image_path " +
-                     ShellQuote(JoinPaths(DatasetPath(name), "images")) +
+                     ShellQuote(DatasetPath(name) / "images") +
                      " --ImageReader.camera_model PINHOLE"
                      " --ImageReader.single_camera 1"
-                     " --SiftExtraction.use_gpu 0",
+                     " --FeatureExtraction.use_gpu 0",
                  &output),
       0)
       << output;
   THROW_CHECK_EQ(
       RunCommand(std::string(COLMAP_BINARY) +
                      " exhaustive_matcher --database_path " +
-                     ShellQuote(database) + " --SiftMatching.use_gpu 0",
+                     ShellQuote(database) + " --FeatureMatching.use_gpu 0",
                  &output),
       0)
       << output;
@@ -61,19 +64,19 @@ std::string PrepareDatabase(const std::string& name) {
 }
 
 struct MapperRun {
-  std::string output_path;
+  std::filesystem::path output_path;
   std::string log;
   double seconds = 0;
   ModelEvaluation evaluation;
 };
 
 MapperRun RunMapper(const std::string& name,
-                    const std::string& database,
+                    const std::filesystem::path& database,
                     const std::string& command,
                     const std::string& arguments) {
   MapperRun run;
-  run.output_path = JoinPaths(GetParentDir(database), command);
-  boost::filesystem::remove_all(run.output_path);
+  run.output_path = GetParentDir(database) / command;
+  std::filesystem::remove_all(run.output_path);
   CreateDirIfNotExists(run.output_path);
   Timer timer;
   timer.Start();
@@ -81,16 +84,16 @@ MapperRun RunMapper(const std::string& name,
       RunCommand(
           std::string(COLMAP_BINARY) + " " + command + " --database_path " +
               ShellQuote(database) + " --image_path " +
-              ShellQuote(JoinPaths(DatasetPath(name), "images")) +
+              ShellQuote(DatasetPath(name) / "images") +
               " --output_path " + ShellQuote(run.output_path) + " " + arguments,
           &run.log),
       0)
       << run.log;
   run.seconds = timer.ElapsedSeconds();
   Reconstruction model;
-  model.Read(JoinPaths(run.output_path, "0"));
+  model.Read(run.output_path / "0");
   Reconstruction ground_truth;
-  ground_truth.Read(JoinPaths(DatasetPath(name), "ground_truth"));
+  ground_truth.Read(DatasetPath(name) / "ground_truth");
   run.evaluation = EvaluateModel(model, ground_truth);
   return run;
 }
@@ -123,7 +126,7 @@ void Report(const std::string& name,
 class RealData : public ::testing::Test {
  protected:
   void SetUp() override {
-    if (!ExistsDir(JoinPaths(SHARED_DATA_DIR, "strecha"))) {
+    if (!ExistsDir(std::filesystem::path(SHARED_DATA_DIR) / "strecha")) {
       GTEST_SKIP() << "The Strecha photo sets are not at " << SHARED_DATA_DIR
                    << "/strecha (../shared beside the repository); skipped.";
     }
@@ -133,7 +136,7 @@ class RealData : public ::testing::Test {
 // The courtyard loop: with exhaustive matching nearly every pair is
 // verified, so only the inlier-weighted view graph shows the structure.
 TEST_F(RealData, CastleP30SplitsAndMergesAsWellAsTheMapper) {
-  const std::string database = PrepareDatabase("castle-P30");
+  const std::filesystem::path database = PrepareDatabase("castle-P30");
   const MapperRun community =
       RunMapper("castle-P30",
                 database,
@@ -144,13 +147,13 @@ TEST_F(RealData, CastleP30SplitsAndMergesAsWellAsTheMapper) {
   Report("castle-P30", community, mapper);
 
   const std::unordered_map<std::string, int> communities =
-      ReadCommunities(JoinPaths(community.output_path, "communities.txt"));
+      ReadCommunities(community.output_path / "communities.txt");
   std::set<int> ids;
   for (const auto& entry : communities) {
     ids.insert(entry.second);
   }
   EXPECT_GE(ids.size(), 2);
-  EXPECT_FALSE(ExistsDir(JoinPaths(community.output_path, "1")));
+  EXPECT_FALSE(ExistsDir(community.output_path / "1"));
   EXPECT_EQ(community.evaluation.num_registered_images, 30);
   ASSERT_TRUE(community.evaluation.aligned);
   EXPECT_LE(community.evaluation.median_position_error,
@@ -173,7 +176,7 @@ TEST_F(RealData, CastleP30SplitsAndMergesAsWellAsTheMapper) {
   EXPECT_GE(threshold, 1.0);
   EXPECT_LT(threshold, 3.0);
   Reconstruction model;
-  model.Read(JoinPaths(community.output_path, "0"));
+  model.Read(community.output_path / "0");
   for (const auto& point3D : model.Points3D()) {
     EXPECT_LE(point3D.second.error, threshold + 0.01);
   }
@@ -182,14 +185,14 @@ TEST_F(RealData, CastleP30SplitsAndMergesAsWellAsTheMapper) {
 // A facade and its side: no community structure with the defaults, so the
 // result is the incremental mapper's.
 TEST_F(RealData, HerzJesusP25IsOneCommunity) {
-  const std::string database = PrepareDatabase("Herz-Jesus-P25");
+  const std::filesystem::path database = PrepareDatabase("Herz-Jesus-P25");
   const MapperRun community =
       RunMapper("Herz-Jesus-P25", database, "community_mapper", "");
   const MapperRun mapper = RunMapper("Herz-Jesus-P25", database, "mapper", "");
   Report("Herz-Jesus-P25", community, mapper);
 
   const std::unordered_map<std::string, int> communities =
-      ReadCommunities(JoinPaths(community.output_path, "communities.txt"));
+      ReadCommunities(community.output_path / "communities.txt");
   EXPECT_EQ(communities.size(), 25);
   for (const auto& entry : communities) {
     EXPECT_EQ(entry.second, 0);

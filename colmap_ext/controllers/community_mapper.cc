@@ -8,17 +8,15 @@
 #include "colmap_ext/util/option_check.h"
 #include "colmap_ext/util/process_memory.h"
 
-#include "colmap/math/math.h"
-#include "colmap/math/random.h"
 #include "colmap/scene/database.h"
-#include "colmap/scene/database_cache.h"
+#include "colmap/util/file.h"
+#include "colmap/util/logging.h"
 #include "colmap/util/misc.h"
+#include "colmap/util/string.h"
 #include "colmap/util/threading.h"
 #include "colmap/util/timer.h"
 
 #include <algorithm>
-#include <map>
-#include <set>
 
 namespace colmap {
 namespace {
@@ -29,7 +27,7 @@ namespace {
 std::string ReadDatabaseFingerprint(const std::string& database_path) {
   std::string fingerprint;
   RetryDatabaseAccessOrThrow(database_path, [&]() {
-    fingerprint = DatabaseFingerprint(Database(database_path));
+    fingerprint = DatabaseFingerprint(*Database::Open(database_path));
   });
   return fingerprint;
 }
@@ -47,14 +45,17 @@ CommunityMergeOptions CommunityMapperController::Options::MergeOptions()
   return merge_options;
 }
 
-IncrementalMapperOptions
+IncrementalPipelineOptions
 CommunityMapperController::Options::CommunityIncrementalOptions(
     const std::unordered_set<std::string>& image_names,
     const int num_threads,
     const double own_camera_fraction,
     const bool only_community) const {
-  IncrementalMapperOptions community_options = incremental_options;
-  community_options.image_names = image_names;
+  IncrementalPipelineOptions community_options = incremental_options;
+  community_options.image_names.assign(image_names.begin(), image_names.end());
+  std::sort(community_options.image_names.begin(),
+            community_options.image_names.end());
+  community_options.image_path = image_path;
   if (community_options.num_threads < 0) {
     community_options.num_threads = num_threads;
   }
@@ -66,7 +67,7 @@ CommunityMapperController::Options::CommunityIncrementalOptions(
         community_ba_function_tolerance;
   }
   if (community_ba_global_ratio > 0) {
-    community_options.ba_global_images_ratio = community_ba_global_ratio;
+    community_options.ba_global_frames_ratio = community_ba_global_ratio;
     community_options.ba_global_points_ratio = community_ba_global_ratio;
   }
   return community_options;
@@ -96,8 +97,9 @@ bool CommunityMapperController::Options::Check() const {
                          community_ba_global_ratio == -1,
                      "community_ba_global_ratio",
                      community_ba_global_ratio,
-                     "greater than 1, or -1 for --Mapper.ba_global_images_ratio "
-                     "and --Mapper.ba_global_points_ratio");
+                     "greater than 1, or -1 for "
+                     "--Mapper.ba_global_frames_ratio and "
+                     "--Mapper.ba_global_points_ratio");
   return valid && MergeOptions().Check();  // With incremental_options'.
 }
 
@@ -123,13 +125,20 @@ bool CommunityMapperController::Partition() {
   }
   Timer timer;
   timer.Start();
-  const Database database(options_.database_path);
-  database_fingerprint_ = DatabaseFingerprint(database);
+  const std::shared_ptr<Database> database =
+      Database::Open(options_.database_path);
+  database_fingerprint_ = DatabaseFingerprint(*database);
   const ViewGraph view_graph =
-      ViewGraph::Read(database, options_.incremental_options.min_num_matches, options_.image_names);
+      ViewGraph::Read(*database,
+                      options_.incremental_options.min_num_matches,
+                      options_.image_names);
   const ViewGraphEdgeWeight edge_weight = options_.edge_weight;
-  const WeightedGraph graph = view_graph.ToWeightedGraph(edge_weight);
-  const std::vector<std::vector<int>> components = graph.ConnectedComponents();
+  // The partition's vertices are frames (rig snapshots, one pose each): a
+  // frame's images stay in one community, and communities borrow frames.
+  const WeightedGraph graph = view_graph.ToFrameGraph(edge_weight);
+  const std::vector<std::vector<int>>& frames = view_graph.FrameVertices();
+  const std::vector<std::vector<int>> components =
+      view_graph.ToWeightedGraph(edge_weight).ConnectedComponents();
   summary_.num_view_graph_images = static_cast<int>(view_graph.NumVertices());
   summary_.num_view_graph_edges = static_cast<int>(view_graph.NumEdges());
   summary_.num_view_graph_components = static_cast<int>(components.size());
@@ -160,17 +169,24 @@ bool CommunityMapperController::Partition() {
   plan_.database_fingerprint = database_fingerprint_;
   plan_.options = options_.plan_options;
   plan_.communities.resize(partition.NumCommunities());
-  for (size_t vertex = 0; vertex < view_graph.NumVertices(); ++vertex) {
-    plan_.communities[partition.membership[vertex]].own_image_names.push_back(
-        view_graph.ImageNames()[vertex]);
+  CommunityPartition image_partition = partition;  // By image.
+  image_partition.membership.resize(view_graph.NumVertices());
+  for (size_t frame = 0; frame < frames.size(); ++frame) {
+    for (const int vertex : frames[frame]) {
+      image_partition.membership[vertex] = partition.membership[frame];
+      plan_.communities[partition.membership[frame]]
+          .own_image_names.push_back(view_graph.ImageNames()[vertex]);
+    }
   }
   const std::vector<std::vector<int>> extended =
       ExtendCommunities(graph, partition, options_.image_overlap);
   for (size_t c = 0; c < extended.size(); ++c) {
-    for (const int vertex : extended[c]) {
-      if (partition.membership[vertex] != static_cast<int>(c)) {
-        plan_.communities[c].borrowed_image_names.push_back(
-            view_graph.ImageNames()[vertex]);
+    for (const int frame : extended[c]) {
+      for (const int vertex : frames[frame]) {
+        if (partition.membership[frame] != static_cast<int>(c)) {
+          plan_.communities[c].borrowed_image_names.push_back(
+              view_graph.ImageNames()[vertex]);
+        }
       }
     }
   }
@@ -194,7 +210,7 @@ bool CommunityMapperController::Partition() {
   CreateDirIfNotExists(options_.output_path, /*recursive=*/true);
   WriteTextFileAtomically(
       CommunitiesToText(view_graph,
-                        partition,
+                        image_partition,
                         options_.community_detection.modularity_threshold,
                         edge_weight),
       workspace_.CommunitiesPath());
@@ -308,7 +324,7 @@ bool CommunityMapperController::ReconstructAndRecord(
           100 * own_camera_fraction);
     }
     const CommunityReconstruction reconstruction = colmap::ReconstructCommunityModels(
-        std::make_shared<const IncrementalMapperOptions>(
+        std::make_shared<IncrementalPipelineOptions>(
             options_.CommunityIncrementalOptions(
                 image_names, num_threads, own_camera_fraction, only_community)),
         options_.image_path,
@@ -434,17 +450,17 @@ bool CommunityMapperController::Merge() {
   CommunityMerge merge(options_.MergeOptions(), plan_, workspace_);
   Timer timer;
 
-  PrintHeading1("3. Pairwise similarities between connected communities");
+  LOG_HEADING1("3. Pairwise similarities between connected communities");
   timer.Start();
   merge.EstimateSimilarities();
   EndPhase("Pairwise similarities", timer.ElapsedSeconds());
 
-  PrintHeading1("4. Similarity averaging");
+  LOG_HEADING1("4. Similarity averaging");
   timer.Restart();
   merge.AverageSimilarities();
   EndPhase("Similarity averaging", timer.ElapsedSeconds());
 
-  PrintHeading1("5. Merge and final bundle adjustment");
+  LOG_HEADING1("5. Merge and final bundle adjustment");
   timer.Restart();
   merge.MergeParts();
   const CommunityMergeResult& result = merge.Result();
@@ -484,7 +500,6 @@ bool CommunityMapperController::Merge() {
   return true;
 }
 
-
 void CommunityMapperController::Run() { RunAllStages(); }
 
 bool CommunityMapperController::RunAllStages() {
@@ -497,7 +512,7 @@ bool CommunityMapperController::RunAllStages() {
   // 1. View graph and communities (or the plan of an earlier run)
   //////////////////////////////////////////////////////////////////////////////
 
-  PrintHeading1("1. Partitioning the view graph into communities");
+  LOG_HEADING1("1. Partitioning the view graph into communities");
   phase_timer.Start();
   if (ExistsFile(workspace_.PlanPath())) {
     LOG(INFO) << "Resuming the run in " << options_.output_path
@@ -514,7 +529,7 @@ bool CommunityMapperController::RunAllStages() {
   // 2. Community reconstruction
   //////////////////////////////////////////////////////////////////////////////
 
-  PrintHeading1("2. Reconstructing the communities");
+  LOG_HEADING1("2. Reconstructing the communities");
   phase_timer.Restart();
   std::vector<int> to_reconstruct;
   for (int c = 0; c < plan_.NumCommunities(); ++c) {

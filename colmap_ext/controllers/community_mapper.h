@@ -10,7 +10,7 @@
 // pairwise similarities between connected communities) and merged, and a
 // final bundle adjustment refines the whole model.
 //
-// Compared with COLMAP's HierarchicalMapperController, which partitions by
+// Compared with COLMAP's HierarchicalPipeline, which partitions by
 // METIS into overlapping clusters and merges them pair by pair, the
 // partition follows the view graph's own structure, the merge is global and
 // judges what it merges, and the merged model is bundle adjusted.
@@ -37,7 +37,7 @@
 #include "colmap_ext/controllers/community_mapper_summary.h"
 #include "colmap_ext/sfm/community_merge.h"
 
-#include "colmap/controllers/incremental_mapper.h"
+#include "colmap/controllers/incremental_pipeline.h"
 #include "colmap/scene/reconstruction_manager.h"
 #include "colmap/util/base_controller.h"
 
@@ -59,8 +59,8 @@ class CommunityMapperController : public BaseController {
     std::string database_path;
 
     // Only these images are reconstructed (empty: every image of the
-    // database), as colmap mapper's --image_list_path: the view graph holds
-    // the pairs of two of them. The command records the list in
+    // database), as colmap mapper's --Mapper.image_list_path: the view graph
+    // holds the pairs of two of them. The command records the list in
     // plan_options.
     std::unordered_set<std::string> image_names;
 
@@ -101,9 +101,9 @@ class CommunityMapperController : public BaseController {
     // the last digits.
     double community_ba_function_tolerance = 1e-6;
 
-    // Growth of a community's model (in registered images or in points)
+    // Growth of a community's model (in registered frames or in points)
     // after which its incremental mapper runs the next global bundle
-    // adjustment; -1 takes incremental_options.ba_global_images_ratio and
+    // adjustment; -1 takes incremental_options.ba_global_frames_ratio and
     // ba_global_points_ratio (COLMAP's 1.1). Local bundle adjustment still
     // follows every registration.
     double community_ba_global_ratio = 1.4;
@@ -131,17 +131,17 @@ class CommunityMapperController : public BaseController {
     // Options of the incremental mapper (per community, and for the
     // registration, triangulation and bundle adjustment of the merge). Its
     // min_num_matches is the view graph's too.
-    IncrementalMapperOptions incremental_options;
+    IncrementalPipelineOptions incremental_options;
 
     // The merge stage's options, with this struct's inputs in effect.
     CommunityMergeOptions MergeOptions() const;
 
     // The incremental mapper's options for one community's images:
-    // incremental_options with the community_* settings above in effect
-    // (unless UsesMapperSchedule(own_camera_fraction, only_community)),
-    // and num_threads threads if incremental_options leaves it to the
-    // machine.
-    IncrementalMapperOptions CommunityIncrementalOptions(
+    // incremental_options with the community's images (sorted) and
+    // image_path, the community_* settings above in effect (unless
+    // UsesMapperSchedule(own_camera_fraction, only_community)), and
+    // num_threads threads if incremental_options leaves it to the machine.
+    IncrementalPipelineOptions CommunityIncrementalOptions(
         const std::unordered_set<std::string>& image_names,
         int num_threads,
         double own_camera_fraction = 0,

@@ -51,7 +51,7 @@ std::string CommunityMapperSummaryToText(
 }
 
 void LogCommunityMapperSummary(const CommunityMapperSummary& summary) {
-  PrintHeading1("Community mapper summary");
+  LOG_HEADING1("Community mapper summary");
   // (A merge that stopped early judged nothing.)
   const auto left_the_merge = [&summary](const size_t c) {
     return c < summary.community_excluded.size() &&

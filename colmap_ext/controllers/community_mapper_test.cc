@@ -7,11 +7,11 @@ namespace {
 
 // The incremental mapper's own global adjustment schedule (COLMAP's
 // defaults).
-void ExpectMappersGlobalAdjustments(const IncrementalMapperOptions& options) {
-  const IncrementalMapperOptions defaults;
+void ExpectMappersGlobalAdjustments(const IncrementalPipelineOptions& options) {
+  const IncrementalPipelineOptions defaults;
   EXPECT_EQ(options.ba_global_function_tolerance,
             defaults.ba_global_function_tolerance);
-  EXPECT_EQ(options.ba_global_images_ratio, defaults.ba_global_images_ratio);
+  EXPECT_EQ(options.ba_global_frames_ratio, defaults.ba_global_frames_ratio);
   EXPECT_EQ(options.ba_global_points_ratio, defaults.ba_global_points_ratio);
 }
 
@@ -19,18 +19,18 @@ TEST(CommunityIncrementalOptions, CommunitySettingsOverrideTheMappers) {
   CommunityMapperController::Options options;
   options.community_ba_function_tolerance = 1e-5;
   options.community_ba_global_ratio = 1.3;
-  options.incremental_options.ba_local_num_images = 9;
-  const IncrementalMapperOptions community_options =
+  options.incremental_options.mapper.ba_local_num_images = 9;
+  const IncrementalPipelineOptions community_options =
       options.CommunityIncrementalOptions({"a.jpg", "b.jpg"},
                                           /*num_threads=*/3);
   EXPECT_EQ(community_options.image_names,
-            std::unordered_set<std::string>({"a.jpg", "b.jpg"}));
+            std::vector<std::string>({"a.jpg", "b.jpg"}));
   EXPECT_EQ(community_options.num_threads, 3);
   EXPECT_EQ(community_options.ba_global_function_tolerance, 1e-5);
-  EXPECT_EQ(community_options.ba_global_images_ratio, 1.3);
+  EXPECT_EQ(community_options.ba_global_frames_ratio, 1.3);
   EXPECT_EQ(community_options.ba_global_points_ratio, 1.3);
   // Everything else is the mapper's.
-  EXPECT_EQ(community_options.ba_local_num_images, 9);
+  EXPECT_EQ(community_options.mapper.ba_local_num_images, 9);
   EXPECT_TRUE(community_options.Check());
 }
 
@@ -39,7 +39,7 @@ TEST(CommunityIncrementalOptions, MinusOneKeepsTheMappersSettings) {
   options.community_ba_function_tolerance = -1;
   options.community_ba_global_ratio = -1;
   options.incremental_options.num_threads = 5;
-  const IncrementalMapperOptions community_options =
+  const IncrementalPipelineOptions community_options =
       options.CommunityIncrementalOptions({"a.jpg"}, /*num_threads=*/3);
   EXPECT_EQ(community_options.num_threads, 5);
   ExpectMappersGlobalAdjustments(community_options);
@@ -57,13 +57,13 @@ TEST(CommunityIncrementalOptions, TheOnlyCommunityKeepsTheMappers) {
                                           /*num_threads=*/2,
                                           /*own_camera_fraction=*/0,
                                           /*only_community=*/true));
-  const IncrementalMapperOptions one_of_several =
+  const IncrementalPipelineOptions one_of_several =
       options.CommunityIncrementalOptions({"a.jpg"},
                                           /*num_threads=*/2,
                                           /*own_camera_fraction=*/0,
                                           /*only_community=*/false);
   EXPECT_EQ(one_of_several.ba_global_function_tolerance, 1e-5);
-  EXPECT_EQ(one_of_several.ba_global_images_ratio, 1.3);
+  EXPECT_EQ(one_of_several.ba_global_frames_ratio, 1.3);
 }
 
 TEST(CommunityIncrementalOptions, ImagesWithCamerasOfTheirOwnKeepTheMappers) {
@@ -71,18 +71,17 @@ TEST(CommunityIncrementalOptions, ImagesWithCamerasOfTheirOwnKeepTheMappers) {
   options.community_ba_function_tolerance = 1e-5;
   options.community_ba_global_ratio = 1.3;
   // Most images with a camera of their own: the mapper's schedule.
-  IncrementalMapperOptions community_options =
+  IncrementalPipelineOptions community_options =
       options.CommunityIncrementalOptions(
           {"a.jpg"}, /*num_threads=*/3, /*own_camera_fraction=*/0.9);
   EXPECT_EQ(community_options.num_threads, 3);
-  EXPECT_EQ(community_options.image_names,
-            std::unordered_set<std::string>({"a.jpg"}));
+  EXPECT_EQ(community_options.image_names, std::vector<std::string>({"a.jpg"}));
   ExpectMappersGlobalAdjustments(community_options);
   // Half or fewer: the community settings.
   community_options = options.CommunityIncrementalOptions(
       {"a.jpg"}, /*num_threads=*/3, /*own_camera_fraction=*/0.5);
   EXPECT_EQ(community_options.ba_global_function_tolerance, 1e-5);
-  EXPECT_EQ(community_options.ba_global_images_ratio, 1.3);
+  EXPECT_EQ(community_options.ba_global_frames_ratio, 1.3);
   // Turned off: the community settings whatever the cameras.
   options.mapper_schedule_for_own_cameras = false;
   community_options = options.CommunityIncrementalOptions(

@@ -8,14 +8,13 @@
 #include "colmap_ext/util/output_lock.h"
 #include "colmap_ext/util/process_memory.h"
 
+#include "colmap/controllers/incremental_pipeline.h"
 #include "colmap/controllers/option_manager.h"
-#include "colmap/util/misc.h"
+#include "colmap/util/file.h"
+#include "colmap/util/logging.h"
 
-#include <fstream>
+#include <filesystem>
 #include <set>
-#include <sstream>
-
-#include <boost/filesystem.hpp>
 
 namespace colmap {
 namespace {
@@ -98,6 +97,12 @@ bool ControllerOptions(const CommunityMapperCommand& command,
     LOG(ERROR) << "Invalid option values (see above).";
     return false;
   }
+  if (!options->incremental_options.image_names.empty()) {
+    LOG(ERROR) << "--Mapper.image_list_path is not read by "
+               << StageName(command.stage)
+               << ": give the list as --image_list_path.";
+    return false;
+  }
   if (command.stage == CommunityMapperStage::kCommunity &&
       command.community_id < 0) {
     LOG(ERROR) << "--community_id is missing or negative: give the community "
@@ -172,6 +177,12 @@ std::vector<std::string> WriteOutputs(
     models.push_back(reconstruction_manager.Get(i));
   }
   workspace.WriteMergedModels(models);
+  for (size_t i = 0; i < models.size(); ++i) {
+    WriteTextFileAtomically(
+        command.colmap_ini,
+        (std::filesystem::path(workspace.MergedModelPath(i)) / "project.ini")
+            .string());
+  }
   WriteTextFileAtomically(CommunityMapperController::SummaryToText(summary),
                           workspace.SummaryPath());
   return {workspace.MergedModelPath(0) +
@@ -179,7 +190,7 @@ std::vector<std::string> WriteOutputs(
                                  : std::string()) +
               " (the merged model" + (models.size() > 1 ? "s" : "") +
               ", largest first)",
-          JoinPaths(workspace.CommunitiesDir(), "K") +
+          (std::filesystem::path(workspace.CommunitiesDir()) / "K").string() +
               " (each community's own model)",
           workspace.CommunitiesPlyPath() +
               " (camera centres of model 0, coloured by community)",
@@ -227,22 +238,10 @@ bool RunCommunityMapperImpl(const CommunityMapperCommand& command) {
 
 namespace {
 
-// COLMAP's options as OptionManager writes them to a project file.
-std::string OptionsToIni(const OptionManager& options) {
-  const boost::filesystem::path temporary =
-      boost::filesystem::temp_directory_path() /
-      boost::filesystem::unique_path("community_mapper-%%%%%%%%.ini");
-  options.Write(temporary.string());
-  std::ifstream file(temporary.string());
-  std::stringstream text;
-  text << file.rdbuf();
-  boost::filesystem::remove(temporary);
-  return text.str();
-}
-
-// Parses the command line of `stage`'s command into `command` (exits on
-// --help or unparsable options, as every COLMAP command does).
-void ParseCommand(int argc,
+// Parses the command line of `stage`'s command into `command`. False (with
+// the reason logged) on unparsable options; exits on --help, as every COLMAP
+// command does.
+bool ParseCommand(int argc,
                   char** argv,
                   const CommunityMapperStage stage,
                   CommunityMapperCommand* command) {
@@ -256,7 +255,7 @@ void ParseCommand(int argc,
   if ((stage == CommunityMapperStage::kCommunity &&
        !TakeCommunityId(&arguments, &command->community_id)) ||
       !CheckNothingBesideProjectPath(arguments)) {
-    std::exit(EXIT_FAILURE);
+    return false;
   }
 
   OptionManager options;
@@ -277,27 +276,32 @@ void ParseCommand(int argc,
 
   AddCommunityMapperOptions(&command->options, &options);
   options.AddMapperOptions();
-  options.Parse(static_cast<int>(arguments.size()), arguments.data());
+  if (!options.Parse(static_cast<int>(arguments.size()), arguments.data())) {
+    return false;
+  }
 
-  mapper_options.database_path = *options.database_path;
-  mapper_options.image_path = *options.image_path;
+  mapper_options.database_path = options.database_path->string();
+  mapper_options.image_path = options.image_path->string();
   mapper_options.output_path = output_path;
   mapper_options.incremental_options = *options.mapper;
 
   // project.ini: output_path (and image_list_path) first, as options
   // outside any section precede the sections; COLMAP's options; the
   // CommunityMapper section.
+  command->colmap_ini = ColmapOptionsToIni(
+      options, {"output_path", "image_list_path", "community_id"});
   command->project_ini =
       "output_path=" + output_path + "\n" +
       (command->image_list_path.empty()
            ? ""
            : "image_list_path=" + command->image_list_path + "\n") +
-      OptionsToIni(options) + CommunityMapperIniSection(command->options);
+      command->colmap_ini + CommunityMapperIniSection(command->options);
   mapper_options.plan_options = PlanOptionsFromIni(command->project_ini);
   if (stage == CommunityMapperStage::kCommunity) {
     // Its project would carry --community_id: the partition's stays.
     command->project_ini.clear();
   }
+  return true;
 }
 
 int RunStage(int argc, char** argv, const CommunityMapperStage stage) {
@@ -305,7 +309,9 @@ int RunStage(int argc, char** argv, const CommunityMapperStage stage) {
   // its own (see process_memory.h).
   MapLargeAllocationsApart();
   CommunityMapperCommand command;
-  ParseCommand(argc, argv, stage, &command);
+  if (!ParseCommand(argc, argv, stage, &command)) {
+    return EXIT_FAILURE;
+  }
   return RunCommunityMapperImpl(command) ? EXIT_SUCCESS : EXIT_FAILURE;
 }
 

@@ -40,12 +40,17 @@ struct CommunityMapperCommand {
   // RunCommunityMapperImpl.
   CommunityMapperCommandOptions options;
   // --image_list_path: a text file of the image names to reconstruct, one
-  // per line, as colmap mapper's (empty: every image of the database).
+  // per line, as colmap mapper's --Mapper.image_list_path (empty: every
+  // image of the database). --Mapper.image_list_path itself is refused.
   std::string image_list_path;
   // The community of kCommunity.
   int community_id = -1;
   // Written to OUT/project.ini by the partition and the merge (if not empty).
   std::string project_ini;
+  // COLMAP's options alone, written as project.ini beside every merged
+  // model as `colmap mapper` does (the GUI reads the database and image
+  // paths from it).
+  std::string colmap_ini;
 };
 
 // Runs the command on parsed options. Returns false, with the reason

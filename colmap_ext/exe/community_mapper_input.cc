@@ -2,11 +2,16 @@
 
 #include "colmap_ext/scene/community_io.h"
 #include "colmap_ext/scene/community_workspace.h"
+#include "colmap_ext/scene/database_migration.h"
 
 #include "colmap/scene/database.h"
-#include "colmap/util/misc.h"
+#include "colmap/util/file.h"
+#include "colmap/util/logging.h"
+#include "colmap/util/string.h"
 
-#include <boost/filesystem.hpp>
+#include <filesystem>
+#include <system_error>
+
 #include <sqlite3.h>
 
 namespace colmap {
@@ -37,10 +42,11 @@ bool ReadImageListIntoOptions(const std::string& path,
     LOG(ERROR) << problem;
     return false;
   }
-  const Database database(options->database_path);
+  const std::shared_ptr<Database> database =
+      Database::Open(options->database_path);
   std::vector<std::string> unknown;
   for (const std::string& name : names) {
-    if (!database.ExistsImageWithName(name)) {
+    if (!database->ExistsImageWithName(name)) {
       unknown.push_back(name);
     }
   }
@@ -63,7 +69,11 @@ bool ReadImageListIntoOptions(const std::string& path,
   return true;
 }
 
-bool CheckDatabase(const std::string& path, const int min_num_matches) {
+namespace {
+
+// Whether the database at `path` holds what a reconstruction needs; logs
+// what is missing and what to do otherwise.
+bool CheckDatabaseContents(const std::string& path, const int min_num_matches) {
   if (!ExistsFile(path)) {
     LOG(ERROR) << "The database " << path
                << " does not exist. Check --database_path, or create it with "
@@ -143,14 +153,33 @@ bool CheckDatabase(const std::string& path, const int min_num_matches) {
   return true;
 }
 
+}  // namespace
+
+bool CheckDatabase(const std::string& path, const int min_num_matches) {
+  if (!CheckDatabaseContents(path, min_num_matches)) {
+    return false;
+  }
+  try {
+    if (IsColmap3Database(path)) {
+      MigrateColmap3Database(path);
+    }
+  } catch (const std::exception& error) {
+    LOG(ERROR) << "The database " << path << " was written by COLMAP 3 and "
+               << "could not be migrated to COLMAP 4's layout (" << error.what()
+               << "). It is unchanged.";
+    return false;
+  }
+  return true;
+}
+
 void CheckImagePath(const std::string& image_path) {
   if (!ExistsDir(image_path)) {
     LOG(WARNING) << "--image_path " << image_path
                  << " is not a folder: the points will have no colours.";
     return;
   }
-  boost::system::error_code error;
-  if (boost::filesystem::is_empty(image_path, error) && !error) {
+  std::error_code error;
+  if (std::filesystem::is_empty(image_path, error) && !error) {
     LOG(WARNING) << "--image_path " << image_path
                  << " is empty: the points will have no colours.";
   }

@@ -10,10 +10,11 @@
 
 namespace colmap {
 
-// Reads the database without modifying it and says what it lacks (no
-// file, not a COLMAP database, no images, features or verified pairs with
-// at least `min_num_matches` inliers). False, with the reason logged, if it
-// cannot be used.
+// Says what the database lacks (no file, not a COLMAP database, no images,
+// features or verified pairs with at least `min_num_matches` inliers); a
+// usable database written by COLMAP 3 is then migrated to COLMAP 4's layout,
+// its original kept beside it (database_migration.h). False, with the
+// reason logged, if it cannot be used; it is then unchanged.
 bool CheckDatabase(const std::string& path, int min_num_matches);
 
 // Reads --image_list_path into options->image_names, each name an image of

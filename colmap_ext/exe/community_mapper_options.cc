@@ -1,5 +1,11 @@
 #include "colmap_ext/exe/community_mapper_options.h"
 
+#include "colmap_ext/util/atomic_output.h"
+
+#include "colmap/util/file.h"
+
+#include <filesystem>
+
 #include <set>
 #include <sstream>
 
@@ -97,8 +103,8 @@ std::vector<CommunityMapperOption> CommunityMapperOptionTable(
        kAdvanced},
       {"community_ba_global_ratio",
        &mapper.community_ba_global_ratio,
-       "growth of a community's model (images or points) after which it is "
-       "bundle adjusted as a whole (-1: Mapper.ba_global_images_ratio and "
+       "growth of a community's model (frames or points) after which it is "
+       "bundle adjusted as a whole (-1: Mapper.ba_global_frames_ratio and "
        "Mapper.ba_global_points_ratio)",
        kShapesPlan,
        kAdvanced},
@@ -247,7 +253,7 @@ std::string PlanOptionsFromIni(const std::string& project_ini) {
   const std::set<std::string> community_mapper_keys(plan_keys.begin(),
                                                     plan_keys.end());
   static const std::set<std::string> kIgnoredMapperKeys = {
-      "num_threads", "snapshot_path", "snapshot_images_freq"};
+      "num_threads", "ba_gpu_index", "snapshot_path", "snapshot_frames_freq"};
   std::string plan_options;
   std::string section;
   std::istringstream lines(project_ini);
@@ -268,6 +274,30 @@ std::string PlanOptionsFromIni(const std::string& project_ini) {
     }
   }
   return plan_options;
+}
+
+std::string ColmapOptionsToIni(const OptionManager& options,
+                               const std::set<std::string>& own_keys) {
+  const std::filesystem::path temporary =
+      std::filesystem::temp_directory_path() /
+      ("community_mapper-" + WriterTag() + ".ini");
+  options.Write(temporary);
+  const std::vector<std::string> lines = ReadTextFileLines(temporary);
+  std::filesystem::remove(temporary);
+  std::string text;
+  std::string section;
+  for (const std::string& line : lines) {
+    if (line[0] == '[') {
+      section = line.substr(1, line.find(']') - 1);
+    }
+    const bool own = section.empty()
+                         ? own_keys.count(line.substr(0, line.find('='))) > 0
+                         : section == "CommunityMapper";
+    if (!own) {
+      text += line + "\n";
+    }
+  }
+  return text;
 }
 
 }  // namespace colmap

@@ -15,6 +15,7 @@
 
 #include "colmap/controllers/option_manager.h"
 
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -89,6 +90,12 @@ std::vector<CommunityMapperOption> CommunityMapperOptionTable(
 void AddCommunityMapperOptions(CommunityMapperCommandOptions* options,
                                OptionManager* option_manager);
 
+// COLMAP's options as OptionManager writes them to a project file, without
+// the command's own, which OptionManager writes too: those outside any
+// section whose key is in `own_keys`, and the CommunityMapper section.
+std::string ColmapOptionsToIni(const OptionManager& options,
+                               const std::set<std::string>& own_keys);
+
 // The [CommunityMapper] section of project.ini with the options' values.
 std::string CommunityMapperIniSection(
     const CommunityMapperCommandOptions& options);
@@ -98,10 +105,10 @@ std::vector<std::string> CommunityMapperPlanKeys();
 
 // The options that shape the partition and the communities' models, as
 // "Section.key=value" lines of a project.ini text: every incremental mapper
-// option but its threads and snapshots, and the plan's CommunityMapper
-// options. The plan records them; the later stages refuse a plan made with
-// others. The merge's own options may differ between merges of the same
-// communities.
+// option but its threads, GPU index and snapshots, and the plan's
+// CommunityMapper options. The plan records them; the later stages refuse a
+// plan made with others. The merge's own options may differ between merges
+// of the same communities.
 std::string PlanOptionsFromIni(const std::string& project_ini);
 
 // docs/options.md: every option with its default and help, users' first.

@@ -2,8 +2,7 @@
 
 #include "colmap_ext/scene/community_workspace.h"
 
-#include "colmap/util/misc.h"
-
+#include <filesystem>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -81,8 +80,8 @@ TEST(CommunityMapperOptionTable, PlanKeysAreThePartitionsAndCommunities) {
 // docs/options.md is the table's (regenerate it with
 // build/community_mapper_options_doc > docs/options.md).
 TEST(CommunityMapperOptionsMarkdown, IsTheDocsFile) {
-  const std::string doc =
-      ReadTextFile(JoinPaths(std::string(SOURCE_DIR), "docs", "options.md"));
+  const std::string doc = ReadTextFile(
+      (std::filesystem::path(SOURCE_DIR) / "docs" / "options.md").string());
   EXPECT_EQ(CommunityMapperOptionsMarkdown(), doc)
       << "docs/options.md is out of date: run "
          "build/community_mapper_options_doc > docs/options.md";

@@ -4,7 +4,10 @@
 #include "colmap_ext/scene/synthetic_scene.h"
 #include "colmap_ext/util/testing.h"
 
-#include "colmap/util/misc.h"
+#include "colmap/scene/database.h"
+#include "colmap/util/file.h"
+
+#include <filesystem>
 
 #include <gtest/gtest.h>
 
@@ -15,7 +18,7 @@ namespace {
 class RunCommunityMapperImplTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    const std::string test_dir = CreateTestFolder();
+    const std::filesystem::path test_dir = CreateTestFolder();
     SyntheticSceneOptions scene_options;
     scene_options.num_clusters = 2;
     scene_options.num_images_per_cluster = 12;
@@ -23,13 +26,14 @@ class RunCommunityMapperImplTest : public ::testing::Test {
     scene_options.num_points_per_cluster = 400;
     scene_options.num_points_per_link = 150;
     scene_options.close_loop = false;
-    command_.options.mapper.database_path = JoinPaths(test_dir, "database.db");
+    command_.options.mapper.database_path = (test_dir / "database.db").string();
     {
-      Database database(command_.options.mapper.database_path);
+      const std::shared_ptr<Database> database =
+          Database::Open(command_.options.mapper.database_path);
       SyntheticScene scene;
-      SynthesizeCommunityScene(scene_options, &scene, &database);
+      SynthesizeCommunityScene(scene_options, &scene, database.get());
     }
-    command_.options.mapper.output_path = JoinPaths(test_dir, "out");
+    command_.options.mapper.output_path = (test_dir / "out").string();
     command_.options.mapper.plan_options =
         "CommunityMapper.modularity_threshold=0.3\n";
     command_.options.mapper.community_detection.min_community_size = 5;

@@ -2,7 +2,7 @@
 #include "colmap_ext/util/option_check.h"
 
 #include "colmap/util/logging.h"
-#include "colmap/util/misc.h"
+#include "colmap/util/string.h"
 
 #include <algorithm>
 #include <map>

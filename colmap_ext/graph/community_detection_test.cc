@@ -3,8 +3,7 @@
 #include "colmap_ext/scene/synthetic_scene.h"
 #include "colmap_ext/util/testing.h"
 
-#include "colmap/util/misc.h"
-
+#include <filesystem>
 #include <map>
 #include <random>
 #include <set>
@@ -538,10 +537,11 @@ double SmallestClusterShareInOneCommunity(
   scene_options.outlier_match_ratio = 0.08;
   scene_options.num_false_pairs = 30;
   scene_options.seed = 1;
-  Database database(JoinPaths(CreateTestFolder(), "database.db"));
+  const std::shared_ptr<Database> database = Database::Open(
+      std::filesystem::path(CreateTestFolder()) / "database.db");
   SyntheticScene scene;
-  SynthesizeCommunityScene(scene_options, &scene, &database);
-  const ViewGraph view_graph = ViewGraph::Read(database, 15);
+  SynthesizeCommunityScene(scene_options, &scene, database.get());
+  const ViewGraph view_graph = ViewGraph::Read(*database, 15);
   const CommunityPartition partition =
       DetectCommunities(view_graph.ToWeightedGraph(ViewGraphEdgeWeight::kUnit),
                         GreedyModularityPartitioner(),

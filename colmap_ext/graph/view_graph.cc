@@ -31,7 +31,7 @@ WeightedGraph WeightedGraph::InducedSubgraph(
 }
 
 std::vector<std::vector<int>> WeightedGraph::ConnectedComponents() const {
-  UnionFind sets(num_vertices);
+  DisjointSets sets(num_vertices);
   for (const Edge& edge : edges) {
     sets.Union(edge.vertex1, edge.vertex2);
   }
@@ -79,7 +79,11 @@ ViewGraph ViewGraph::Read(const Database& database,
                           const std::unordered_set<std::string>& image_names) {
   std::vector<std::pair<image_t, image_t>> image_pairs;
   std::vector<int> num_inliers;
-  database.ReadTwoViewGeometryNumInliers(&image_pairs, &num_inliers);
+  for (const auto& [pair_id, pair_num_inliers] :
+       database.ReadTwoViewGeometryNumInliers()) {
+    image_pairs.push_back(PairIdToImagePair(pair_id));
+    num_inliers.push_back(pair_num_inliers);
+  }
   // The pairs read are those with inliers; the database counts all.
   const size_t num_failed_pairs =
       database.NumVerifiedImagePairs() - image_pairs.size();
@@ -106,6 +110,14 @@ ViewGraph ViewGraph::Read(const Database& database,
   ViewGraph view_graph =
       Create(image_pairs, num_inliers, min_num_matches, name_of_image);
   view_graph.num_failed_pairs_ = num_failed_pairs;
+  std::unordered_map<image_t, frame_t> frame_of_image;
+  for (const Frame& frame : database.ReadAllFrames()) {
+    for (const data_t& data_id : frame.ImageIds()) {
+      frame_of_image.emplace(static_cast<image_t>(data_id.id),
+                             frame.FrameId());
+    }
+  }
+  view_graph.SetFrames(frame_of_image);
   return view_graph;
 }
 
@@ -157,6 +169,8 @@ ViewGraph ViewGraph::Create(
          pair_and_num_inliers.second});
   }
 
+  graph.SetFrames({});
+
   graph.image_names_.reserve(graph.image_ids_.size());
   for (const image_t image_id : graph.image_ids_) {
     const auto it = image_names.find(image_id);
@@ -178,6 +192,55 @@ WeightedGraph ViewGraph::ToWeightedGraph(
                            weight == ViewGraphEdgeWeight::kUnit
                                ? 1.0
                                : static_cast<double>(edge.num_inliers)});
+  }
+  return graph;
+}
+
+void ViewGraph::SetFrames(
+    const std::unordered_map<image_t, frame_t>& frame_of_image) {
+  frame_vertices_.clear();
+  std::unordered_map<frame_t, size_t> index_of_frame;
+  for (size_t vertex = 0; vertex < image_ids_.size(); ++vertex) {
+    const auto it = frame_of_image.find(image_ids_[vertex]);
+    if (it != frame_of_image.end()) {
+      const auto inserted =
+          index_of_frame.emplace(it->second, frame_vertices_.size());
+      if (!inserted.second) {
+        frame_vertices_[inserted.first->second].push_back(
+            static_cast<int>(vertex));
+        continue;
+      }
+    }
+    frame_vertices_.push_back({static_cast<int>(vertex)});
+  }
+}
+
+WeightedGraph ViewGraph::ToFrameGraph(const ViewGraphEdgeWeight weight) const {
+  if (frame_vertices_.size() == image_ids_.size()) {
+    return ToWeightedGraph(weight);
+  }
+  std::vector<int> frame_of_vertex(image_ids_.size());
+  for (size_t frame = 0; frame < frame_vertices_.size(); ++frame) {
+    for (const int vertex : frame_vertices_[frame]) {
+      frame_of_vertex[vertex] = static_cast<int>(frame);
+    }
+  }
+  std::map<std::pair<int, int>, double> weight_of_frame_pair;
+  for (const WeightedGraph::Edge& edge : ToWeightedGraph(weight).edges) {
+    int frame1 = frame_of_vertex[edge.vertex1];
+    int frame2 = frame_of_vertex[edge.vertex2];
+    if (frame1 == frame2) {
+      continue;
+    }
+    if (frame1 > frame2) {
+      std::swap(frame1, frame2);
+    }
+    weight_of_frame_pair[{frame1, frame2}] += edge.weight;
+  }
+  WeightedGraph graph;
+  graph.num_vertices = static_cast<int>(frame_vertices_.size());
+  for (const auto& [frames, frame_pair_weight] : weight_of_frame_pair) {
+    graph.edges.push_back({frames.first, frames.second, frame_pair_weight});
   }
   return graph;
 }

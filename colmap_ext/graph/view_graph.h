@@ -65,9 +65,9 @@ class ViewGraph {
     int num_inliers = 0;
   };
 
-  // Reads the verified pairs of the database. Only the inlier counts are
-  // read, not the matches themselves, so this is cheap even for large
-  // databases. With `image_names`, only the pairs of two images named there
+  // Reads the verified pairs of the database, and its frames (SetFrames).
+  // Only the inlier counts are read, not the matches themselves, so this is
+  // cheap even for large databases. With `image_names`, only the pairs of two images named there
   // (as the incremental mapper's image_names, --image_list_path).
   static ViewGraph Read(
       const Database& database,
@@ -99,10 +99,27 @@ class ViewGraph {
   // The graph with the requested edge weights.
   WeightedGraph ToWeightedGraph(ViewGraphEdgeWeight weight) const;
 
+  // Groups the vertices by frame: images that `frame_of_image` puts in one
+  // frame (one snapshot of a camera rig, which has one pose) are one unit
+  // of the partition. Images it does not name are frames of their own.
+  void SetFrames(const std::unordered_map<image_t, frame_t>& frame_of_image);
+
+  // The vertices of every frame, each list ascending, frames ordered by
+  // their first vertex (without SetFrames, every vertex is a frame).
+  const std::vector<std::vector<int>>& FrameVertices() const {
+    return frame_vertices_;
+  }
+
+  // The graph of frames: a vertex per frame (FrameVertices' order), an edge
+  // between two frames weighing as the edges between their images together.
+  // Where every frame holds one image, ToWeightedGraph(weight) itself.
+  WeightedGraph ToFrameGraph(ViewGraphEdgeWeight weight) const;
+
  private:
   std::vector<image_t> image_ids_;
   std::vector<std::string> image_names_;
   std::vector<Edge> edges_;
+  std::vector<std::vector<int>> frame_vertices_;
   size_t num_failed_pairs_ = 0;
 };
 

@@ -3,7 +3,8 @@
 #include "colmap_ext/util/testing.h"
 
 #include "colmap/scene/database.h"
-#include "colmap/util/misc.h"
+
+#include <filesystem>
 
 #include <gtest/gtest.h>
 
@@ -57,17 +58,17 @@ TEST(WeightedGraph, InducedSubgraph) {
 }
 
 TEST(ViewGraph, ReadFromDatabase) {
-  const std::string test_dir = CreateTestFolder();
-  Database database(JoinPaths(test_dir, "database.db"));
+  const std::shared_ptr<Database> database = Database::Open(
+      std::filesystem::path(CreateTestFolder()) / "database.db");
   Camera camera = Camera::CreateFromModelName(
       kInvalidCameraId, "SIMPLE_PINHOLE", 100, 100, 100);
-  const camera_t camera_id = database.WriteCamera(camera);
+  const camera_t camera_id = database->WriteCamera(camera);
   std::vector<image_t> image_ids;
   for (int i = 0; i < 4; ++i) {
     Image image;
     image.SetName("image" + std::to_string(i) + ".png");
     image.SetCameraId(camera_id);
-    image_ids.push_back(database.WriteImage(image));
+    image_ids.push_back(database->WriteImage(image));
   }
   auto write_pair = [&](int i, int j, int num_inliers) {
     TwoViewGeometry two_view_geometry;
@@ -75,14 +76,14 @@ TEST(ViewGraph, ReadFromDatabase) {
     for (int k = 0; k < num_inliers; ++k) {
       two_view_geometry.inlier_matches.emplace_back(k, k);
     }
-    database.WriteTwoViewGeometry(
+    database->WriteTwoViewGeometry(
         image_ids[i], image_ids[j], two_view_geometry);
   };
   write_pair(0, 1, 40);
   write_pair(1, 2, 10);
   write_pair(2, 3, 0);
 
-  const ViewGraph graph = ViewGraph::Read(database, /*min_num_matches=*/15);
+  const ViewGraph graph = ViewGraph::Read(*database, /*min_num_matches=*/15);
   ASSERT_EQ(graph.NumVertices(), 2);
   ASSERT_EQ(graph.NumEdges(), 1);
   EXPECT_EQ(graph.ImageNames()[0], "image0.png");
@@ -91,23 +92,64 @@ TEST(ViewGraph, ReadFromDatabase) {
   // Images 2 and 3 were compared and had no inlier.
   EXPECT_EQ(graph.NumFailedPairs(), 1);
   write_pair(0, 3, 0);
-  EXPECT_EQ(ViewGraph::Read(database, 15).NumFailedPairs(), 2);
+  EXPECT_EQ(ViewGraph::Read(*database, 15).NumFailedPairs(), 2);
   EXPECT_EQ(ViewGraph::Create({{image_ids[0], image_ids[1]}}, {40}, 15)
                 .NumFailedPairs(),
             0);
 
-  const ViewGraph loose = ViewGraph::Read(database, /*min_num_matches=*/5);
+  const ViewGraph loose = ViewGraph::Read(*database, /*min_num_matches=*/5);
   EXPECT_EQ(loose.NumVertices(), 3);
   EXPECT_EQ(loose.NumEdges(), 2);
 
   // With a list, only the pairs of two listed images (0-1 is not one).
   const ViewGraph listed = ViewGraph::Read(
-      database, /*min_num_matches=*/5, {"image1.png", "image2.png"});
+      *database, /*min_num_matches=*/5, {"image1.png", "image2.png"});
   ASSERT_EQ(listed.NumVertices(), 2);
   ASSERT_EQ(listed.NumEdges(), 1);
   EXPECT_EQ(listed.ImageNames()[0], "image1.png");
   EXPECT_EQ(listed.ImageNames()[1], "image2.png");
   EXPECT_EQ(listed.Edges()[0].num_inliers, 10);
+}
+
+TEST(ViewGraph, FramesAreOneVertexOfThePartition) {
+  // Images 1 and 2 are one snapshot of a two-camera rig, 3 and 4 another;
+  // image 5 has a frame of its own.
+  const ViewGraph view_graph = [] {
+    ViewGraph graph = ViewGraph::Create(
+        {{1, 2}, {1, 3}, {2, 4}, {2, 3}, {4, 5}}, {50, 20, 30, 10, 40}, 15);
+    graph.SetFrames({{1, 7}, {2, 7}, {3, 8}, {4, 8}, {5, 9}});
+    return graph;
+  }();
+  EXPECT_EQ(view_graph.FrameVertices(),
+            (std::vector<std::vector<int>>{{0, 1}, {2, 3}, {4}}));
+  const WeightedGraph graph =
+      view_graph.ToFrameGraph(ViewGraphEdgeWeight::kNumInliers);
+  EXPECT_EQ(graph.num_vertices, 3);
+  // The edge inside frame 7 is gone; those between frames 7 and 8 add up
+  // (2-3, with fewer than 15 inliers, is no edge).
+  ASSERT_EQ(graph.edges.size(), 2);
+  EXPECT_EQ(graph.edges[0].vertex1, 0);
+  EXPECT_EQ(graph.edges[0].vertex2, 1);
+  EXPECT_EQ(graph.edges[0].weight, 20 + 30);
+  EXPECT_EQ(graph.edges[1].vertex1, 1);
+  EXPECT_EQ(graph.edges[1].vertex2, 2);
+  EXPECT_EQ(graph.edges[1].weight, 40);
+}
+
+TEST(ViewGraph, WithoutRigsTheFrameGraphIsTheImageGraph) {
+  const ViewGraph view_graph =
+      ViewGraph::Create({{1, 2}, {2, 3}}, {50, 20}, 15);
+  EXPECT_EQ(view_graph.FrameVertices(),
+            (std::vector<std::vector<int>>{{0}, {1}, {2}}));
+  const WeightedGraph frame_graph =
+      view_graph.ToFrameGraph(ViewGraphEdgeWeight::kUnit);
+  const WeightedGraph image_graph =
+      view_graph.ToWeightedGraph(ViewGraphEdgeWeight::kUnit);
+  ASSERT_EQ(frame_graph.edges.size(), image_graph.edges.size());
+  for (size_t e = 0; e < image_graph.edges.size(); ++e) {
+    EXPECT_EQ(frame_graph.edges[e].vertex1, image_graph.edges[e].vertex1);
+    EXPECT_EQ(frame_graph.edges[e].vertex2, image_graph.edges[e].vertex2);
+  }
 }
 
 TEST(ViewGraphEdgeWeight, FromString) {

@@ -1,7 +1,8 @@
 #include "colmap_ext/scene/community_io.h"
 
+#include "colmap/util/file.h"
 #include "colmap/util/logging.h"
-#include "colmap/util/misc.h"
+#include "colmap/util/string.h"
 
 #include <algorithm>
 #include <fstream>

@@ -3,8 +3,11 @@
 #include "colmap_ext/util/atomic_output.h"
 #include "colmap_ext/util/testing.h"
 
-#include "colmap/util/misc.h"
 #include "colmap/util/ply.h"
+
+#include <filesystem>
+#include <set>
+#include <tuple>
 
 #include <gtest/gtest.h>
 
@@ -46,7 +49,8 @@ TEST(CommunitiesToText, ListsEveryImageOnceWithItsCommunity) {
   EXPECT_LT(text.find("a.jpg"), text.find("b.jpg"));
   EXPECT_LT(text.find("e.jpg"), text.find("f.jpg"));
 
-  const std::string path = JoinPaths(CreateTestFolder(), "communities.txt");
+  const std::string path =
+      (std::filesystem::path(CreateTestFolder()) / "communities.txt").string();
   WriteTextFileAtomically(text, path);
   const std::unordered_map<std::string, int> communities =
       ReadCommunities(path);
@@ -57,14 +61,15 @@ TEST(CommunitiesToText, ListsEveryImageOnceWithItsCommunity) {
 }
 
 TEST(ReadCommunities, RejectsAnImageListedTwice) {
-  const std::string path = JoinPaths(CreateTestFolder(), "communities.txt");
+  const std::string path =
+      (std::filesystem::path(CreateTestFolder()) / "communities.txt").string();
   WriteTextFileAtomically("# header\na.jpg 0\nb.jpg 1\na.jpg 1\n", path);
   EXPECT_THROW(ReadCommunities(path), std::exception);
 }
 
 TEST(ReadImageList, DistinctTrimmedNamesOrAProblem) {
-  const std::string test_dir = CreateTestFolder();
-  const std::string path = JoinPaths(test_dir, "images.txt");
+  const std::string path =
+      (std::filesystem::path(CreateTestFolder()) / "images.txt").string();
   std::vector<std::string> names;
   EXPECT_NE(ReadImageList(path, &names).find("does not exist"),
             std::string::npos);
@@ -79,7 +84,7 @@ TEST(ReadImageList, DistinctTrimmedNamesOrAProblem) {
 
 TEST(CommunityCamerasToPly, ColmapReadsTheColouredCameras) {
   Reconstruction reconstruction;
-  reconstruction.AddCamera(
+  reconstruction.AddCameraWithTrivialRig(
       Camera::CreateFromModelName(1, "PINHOLE", 100, 100, 100));
   std::unordered_map<image_t, int> community_of_image;
   for (image_t image_id = 1; image_id <= 4; ++image_id) {
@@ -87,15 +92,17 @@ TEST(CommunityCamerasToPly, ColmapReadsTheColouredCameras) {
     image.SetImageId(image_id);
     image.SetCameraId(1);
     image.SetName(std::to_string(image_id));
-    image.CamFromWorld().translation = Eigen::Vector3d(-1.0 * image_id, 0, 0);
-    reconstruction.AddImage(image);
-    reconstruction.RegisterImage(image_id);
+    reconstruction.AddImageWithTrivialFrame(
+        image,
+        Rigid3d(Eigen::Quaterniond::Identity(),
+                Eigen::Vector3d(-1.0 * image_id, 0, 0)));
     if (image_id != 4) {
       community_of_image[image_id] = image_id <= 2 ? 0 : 1;
     }
   }
 
-  const std::string path = JoinPaths(CreateTestFolder(), "communities.ply");
+  const std::string path =
+      (std::filesystem::path(CreateTestFolder()) / "communities.ply").string();
   WriteTextFileAtomically(
       CommunityCamerasToPly(reconstruction, community_of_image), path);
   // COLMAP's reader, which its GUI's "Import model from..." uses.

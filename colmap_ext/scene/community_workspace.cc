@@ -2,16 +2,17 @@
 
 #include "colmap_ext/util/atomic_output.h"
 
+#include "colmap/util/file.h"
 #include "colmap/util/logging.h"
-#include "colmap/util/misc.h"
+#include "colmap/util/string.h"
 
 #include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
 #include <stdexcept>
-
-#include <boost/filesystem.hpp>
+#include <system_error>
 
 namespace colmap {
 namespace {
@@ -98,47 +99,54 @@ CommunityWorkspace::CommunityWorkspace(std::string output_path)
     : output_path_(std::move(output_path)) {}
 
 std::string CommunityWorkspace::PlanPath() const {
-  return JoinPaths(output_path_, kPlanFileName);
+  return (std::filesystem::path(output_path_) / kPlanFileName).string();
 }
 
 std::string CommunityWorkspace::CommunitiesPath() const {
-  return JoinPaths(output_path_, kCommunitiesFileName);
+  return (std::filesystem::path(output_path_) / kCommunitiesFileName).string();
 }
 
 std::string CommunityWorkspace::CommunitiesDir() const {
-  return JoinPaths(output_path_, kCommunitiesDirName);
+  return (std::filesystem::path(output_path_) / kCommunitiesDirName).string();
 }
 
 std::string CommunityWorkspace::CommunityModelPath(
     const int community_id) const {
-  return JoinPaths(CommunitiesDir(), std::to_string(community_id));
+  return (std::filesystem::path(CommunitiesDir()) /
+          std::to_string(community_id))
+      .string();
 }
 
 std::string CommunityWorkspace::CommunityOtherModelPath(const int community_id,
                                                         const int index) const {
-  return JoinPaths(CommunitiesDir(),
-                   std::to_string(community_id) + "." + std::to_string(index));
+  return (std::filesystem::path(CommunitiesDir()) /
+          (std::to_string(community_id) + "." + std::to_string(index)))
+      .string();
 }
 
 std::string CommunityWorkspace::CommunityRecordPath(
     const int community_id) const {
-  return JoinPaths(CommunitiesDir(), std::to_string(community_id) + ".done");
+  return (std::filesystem::path(CommunitiesDir()) /
+          (std::to_string(community_id) + ".done"))
+      .string();
 }
 
 std::string CommunityWorkspace::MergedModelPath(const int model_index) const {
-  return JoinPaths(output_path_, std::to_string(model_index));
+  return (std::filesystem::path(output_path_) / std::to_string(model_index))
+      .string();
 }
 
 std::string CommunityWorkspace::CommunitiesPlyPath() const {
-  return JoinPaths(output_path_, kCommunitiesPlyFileName);
+  return (std::filesystem::path(output_path_) / kCommunitiesPlyFileName)
+      .string();
 }
 
 std::string CommunityWorkspace::ProjectPath() const {
-  return JoinPaths(output_path_, kProjectFileName);
+  return (std::filesystem::path(output_path_) / kProjectFileName).string();
 }
 
 std::string CommunityWorkspace::SummaryPath() const {
-  return JoinPaths(output_path_, kSummaryFileName);
+  return (std::filesystem::path(output_path_) / kSummaryFileName).string();
 }
 
 std::vector<std::string> CommunityWorkspace::MergedModelPaths() const {
@@ -160,17 +168,18 @@ std::string CommunityWorkspace::CreateOutputFolder() const {
   if (output_path_.empty()) {
     return "--output_path is empty.";
   }
-  if (boost::filesystem::exists(output_path_) && !ExistsDir(output_path_)) {
+  if (ExistsPath(output_path_) && !ExistsDir(output_path_)) {
     return "--output_path " + output_path_ +
            " is a file, not a folder: choose a folder for the models.";
   }
-  boost::system::error_code error;
-  boost::filesystem::create_directories(output_path_, error);
+  std::error_code error;
+  std::filesystem::create_directories(output_path_, error);
   if (error) {
     return "Cannot create --output_path " + output_path_ + ": " +
            error.message() + ".";
   }
-  const std::string probe = JoinPaths(output_path_, ".write-test");
+  const std::filesystem::path probe =
+      std::filesystem::path(output_path_) / ".write-test";
   {
     std::ofstream file(probe);
     if (!file.is_open() || !(file << "x")) {
@@ -178,18 +187,18 @@ std::string CommunityWorkspace::CreateOutputFolder() const {
              " is not writable: choose a folder you can write to.";
     }
   }
-  boost::filesystem::remove(probe, error);
+  std::filesystem::remove(probe, error);
   return "";
 }
 
 void CommunityWorkspace::RemoveCommunity(const int community_id) const {
-  boost::system::error_code error;
-  boost::filesystem::remove(CommunityRecordPath(community_id), error);
-  boost::filesystem::remove_all(CommunityModelPath(community_id), error);
+  std::error_code error;
+  std::filesystem::remove(CommunityRecordPath(community_id), error);
+  std::filesystem::remove_all(CommunityModelPath(community_id), error);
   for (int index = 1; ExistsDir(CommunityOtherModelPath(community_id, index));
        ++index) {
-    boost::filesystem::remove_all(CommunityOtherModelPath(community_id, index),
-                                  error);
+    std::filesystem::remove_all(CommunityOtherModelPath(community_id, index),
+                                error);
   }
 }
 
@@ -199,21 +208,21 @@ void CommunityWorkspace::WriteMergedModels(
     WriteReconstructionAtomically(*models[i], MergedModelPath(i));
   }
   // Models of an earlier run beyond the new ones would mix with them.
-  boost::system::error_code error;
+  std::error_code error;
   for (size_t i = models.size(); ExistsDir(MergedModelPath(i)); ++i) {
-    boost::filesystem::remove_all(MergedModelPath(i), error);
+    std::filesystem::remove_all(MergedModelPath(i), error);
   }
 }
 
 void CommunityWorkspace::RemoveResults() const {
-  boost::system::error_code error;
-  boost::filesystem::remove(PlanPath(), error);
-  boost::filesystem::remove(CommunitiesPath(), error);
-  boost::filesystem::remove(CommunitiesPlyPath(), error);
-  boost::filesystem::remove(SummaryPath(), error);
-  boost::filesystem::remove_all(CommunitiesDir(), error);
+  std::error_code error;
+  std::filesystem::remove(PlanPath(), error);
+  std::filesystem::remove(CommunitiesPath(), error);
+  std::filesystem::remove(CommunitiesPlyPath(), error);
+  std::filesystem::remove(SummaryPath(), error);
+  std::filesystem::remove_all(CommunitiesDir(), error);
   for (int i = 0; ExistsDir(MergedModelPath(i)); ++i) {
-    boost::filesystem::remove_all(MergedModelPath(i), error);
+    std::filesystem::remove_all(MergedModelPath(i), error);
   }
 }
 
@@ -340,13 +349,50 @@ std::string DatabaseFingerprint(const Database& database) {
                                  static_cast<int>(image.CameraId())) +
                     image.Name());
   }
-  std::vector<std::pair<image_t, image_t>> image_pairs;
-  std::vector<int> num_inliers;
-  database.ReadTwoViewGeometryNumInliers(&image_pairs, &num_inliers);
+  // Rigs and frames decide which images the mappers pose together. A
+  // database without them (the mappers then take one rig per camera and one
+  // frame per image) adds nothing.
+  std::vector<Rig> rigs = database.ReadAllRigs();
+  std::sort(rigs.begin(), rigs.end(), [](const auto& a, const auto& b) {
+    return a.RigId() < b.RigId();
+  });
+  for (const Rig& rig : rigs) {
+    std::string sensors = StringPrintf(" %d:%d",
+                                       static_cast<int>(rig.RefSensorId().type),
+                                       static_cast<int>(rig.RefSensorId().id));
+    for (const auto& [sensor_id, sensor_from_rig] : rig.NonRefSensors()) {
+      sensors += StringPrintf(" %d:%d",
+                              static_cast<int>(sensor_id.type),
+                              static_cast<int>(sensor_id.id));
+      if (sensor_from_rig.has_value()) {
+        for (int i = 0; i < sensor_from_rig->params.size(); ++i) {
+          sensors += StringPrintf(" %.17g", sensor_from_rig->params(i));
+        }
+      }
+    }
+    fingerprint.Add(StringPrintf("rig %d", static_cast<int>(rig.RigId())) +
+                    sensors);
+  }
+  std::vector<Frame> frames = database.ReadAllFrames();
+  std::sort(frames.begin(), frames.end(), [](const auto& a, const auto& b) {
+    return a.FrameId() < b.FrameId();
+  });
+  for (const Frame& frame : frames) {
+    std::string data = StringPrintf("frame %d %d",
+                                    static_cast<int>(frame.FrameId()),
+                                    static_cast<int>(frame.RigId()));
+    for (const data_t& data_id : frame.DataIds()) {
+      data += StringPrintf(" %d:%d:%d",
+                           static_cast<int>(data_id.sensor_id.type),
+                           static_cast<int>(data_id.sensor_id.id),
+                           static_cast<int>(data_id.id));
+    }
+    fingerprint.Add(data);
+  }
   std::vector<std::pair<std::pair<image_t, image_t>, int>> pairs;
-  for (size_t i = 0; i < image_pairs.size(); ++i) {
-    pairs.emplace_back(std::minmax(image_pairs[i].first, image_pairs[i].second),
-                       num_inliers[i]);
+  for (const auto& [pair_id, num_inliers] :
+       database.ReadTwoViewGeometryNumInliers()) {
+    pairs.emplace_back(PairIdToImagePair(pair_id), num_inliers);
   }
   std::sort(pairs.begin(), pairs.end());
   for (const auto& pair : pairs) {

@@ -18,8 +18,8 @@
 // its model: a record means a complete community, whatever was killed when.
 //
 // The plan records what the later stages need and what they must agree on:
-// the database (path and a fingerprint of its cameras, images and verified
-// pairs), the options in effect (as "key=value" lines), and every
+// the database (path and a fingerprint of its cameras, images, rigs, frames
+// and verified pairs), the options in effect (as "key=value" lines), and every
 // community's images, its own and those it borrows from its neighbours.
 
 #pragma once
@@ -105,8 +105,9 @@ std::string CommunityPlanToText(const CommunityPlan& plan);
 // Parses a plan; throws std::invalid_argument naming what is malformed.
 CommunityPlan CommunityPlanFromText(const std::string& text);
 
-// A fingerprint (hex) of the database's cameras, images and verified pairs
-// (their inlier counts): what the partition and the communities depend on.
+// A fingerprint (hex) of the database's cameras, images, rigs, frames and
+// verified pairs (their inlier counts): what the partition and the
+// communities depend on.
 std::string DatabaseFingerprint(const Database& database);
 
 // A fingerprint (hex) of the texts, in their order (e.g. an image list).

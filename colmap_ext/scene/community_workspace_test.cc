@@ -4,8 +4,9 @@
 #include "colmap_ext/util/atomic_output.h"
 #include "colmap_ext/util/testing.h"
 
-#include "colmap/util/misc.h"
+#include "colmap/util/file.h"
 
+#include <filesystem>
 #include <fstream>
 
 #include <gtest/gtest.h>
@@ -75,8 +76,7 @@ TEST(PlanMismatch, NamesTheOptionOrTheDatabase) {
             "");
 }
 
-TEST(DatabaseFingerprint, FollowsImagesAndVerifiedPairs) {
-  const std::string test_dir = CreateTestFolder();
+TEST(DatabaseFingerprint, FollowsImagesFramesAndVerifiedPairs) {
   SyntheticSceneOptions options;
   options.num_clusters = 2;
   options.num_images_per_cluster = 6;
@@ -85,24 +85,34 @@ TEST(DatabaseFingerprint, FollowsImagesAndVerifiedPairs) {
   options.num_points_per_link = 100;
   options.close_loop = false;
   SyntheticScene scene;
-  Database database(JoinPaths(test_dir, "database.db"));
-  SynthesizeCommunityScene(options, &scene, &database);
-  const std::string fingerprint = DatabaseFingerprint(database);
+  const std::shared_ptr<Database> database = Database::Open(
+      std::filesystem::path(CreateTestFolder()) / "database.db");
+  SynthesizeCommunityScene(options, &scene, database.get());
+  const std::string fingerprint = DatabaseFingerprint(*database);
   EXPECT_EQ(fingerprint.size(), 16);
-  EXPECT_EQ(DatabaseFingerprint(database), fingerprint);
+  EXPECT_EQ(DatabaseFingerprint(*database), fingerprint);
 
   // One verified pair fewer.
-  std::vector<std::pair<image_t, image_t>> image_pairs;
-  std::vector<int> num_inliers;
-  database.ReadTwoViewGeometryNumInliers(&image_pairs, &num_inliers);
-  ASSERT_FALSE(image_pairs.empty());
-  TwoViewGeometry geometry =
-      database.ReadTwoViewGeometry(image_pairs[0].first, image_pairs[0].second);
-  database.DeleteInlierMatches(image_pairs[0].first, image_pairs[0].second);
-  EXPECT_NE(DatabaseFingerprint(database), fingerprint);
-  database.WriteTwoViewGeometry(
-      image_pairs[0].first, image_pairs[0].second, geometry);
-  EXPECT_EQ(DatabaseFingerprint(database), fingerprint);
+  const std::vector<std::pair<image_pair_t, int>> num_inliers =
+      database->ReadTwoViewGeometryNumInliers();
+  ASSERT_FALSE(num_inliers.empty());
+  const auto [image_id1, image_id2] = PairIdToImagePair(num_inliers[0].first);
+  const TwoViewGeometry geometry =
+      database->ReadTwoViewGeometry(image_id1, image_id2);
+  database->DeleteInlierMatches(image_id1, image_id2);
+  EXPECT_NE(DatabaseFingerprint(*database), fingerprint);
+  database->UpdateTwoViewGeometry(image_id1, image_id2, geometry);
+  EXPECT_EQ(DatabaseFingerprint(*database), fingerprint);
+
+  // The images grouped into frames otherwise (as by rig_configurator).
+  const std::vector<Frame> frames = database->ReadAllFrames();
+  ASSERT_EQ(frames.size(), database->NumImages());
+  database->ClearFrames();
+  EXPECT_NE(DatabaseFingerprint(*database), fingerprint);
+  for (const Frame& frame : frames) {
+    database->WriteFrame(frame, /*use_frame_id=*/true);
+  }
+  EXPECT_EQ(DatabaseFingerprint(*database), fingerprint);
 }
 
 TEST(CommunityRecord, TextRoundTrip) {
@@ -136,13 +146,14 @@ TEST(CommunityRecord, TextRoundTrip) {
 }
 
 TEST(CommunityWorkspace, ResultsAreFoundAndRemoved) {
-  const std::string test_dir = CreateTestFolder();
-  const CommunityWorkspace workspace(JoinPaths(test_dir, "out"));
+  const CommunityWorkspace workspace(
+      (std::filesystem::path(CreateTestFolder()) / "out").string());
   EXPECT_EQ(workspace.CreateOutputFolder(), "");
   EXPECT_FALSE(workspace.HasResults());
 
   Reconstruction model;
-  model.AddCamera(Camera::CreateFromModelName(1, "PINHOLE", 100, 64, 48));
+  model.AddCameraWithTrivialRig(
+      Camera::CreateFromModelName(1, "PINHOLE", 100, 64, 48));
   std::vector<std::shared_ptr<const Reconstruction>> models = {
       std::make_shared<Reconstruction>(model),
       std::make_shared<Reconstruction>(model),
@@ -181,8 +192,8 @@ TEST(CommunityWorkspace, ResultsAreFoundAndRemoved) {
 }
 
 TEST(CommunityWorkspace, OutputFolderProblemsAreNamed) {
-  const std::string test_dir = CreateTestFolder();
-  const std::string file = JoinPaths(test_dir, "a-file");
+  const std::string file =
+      (std::filesystem::path(CreateTestFolder()) / "a-file").string();
   std::ofstream(file) << "x";
   EXPECT_NE(CommunityWorkspace(file).CreateOutputFolder().find(
                 "is a file, not a folder"),

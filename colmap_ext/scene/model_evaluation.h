@@ -7,6 +7,13 @@
 // R_gt R_model'^T, R_model' the rotation after alignment) are measured. The
 // extent is the diagonal of the bounding box of the ground-truth camera
 // centres. Images are matched by name.
+//
+// For a ground truth with multi-camera rigs, the model's calibration of each
+// rig is measured too: the pose of every non-reference camera relative to
+// its rig's reference camera (its sensor_from_rig), from the model's rig
+// holding both cameras or, where the model has none (e.g. its images are in
+// frames of their own), from the poses of the model's images of every
+// snapshot of the rig.
 
 #pragma once
 
@@ -56,6 +63,24 @@ struct ModelEvaluation {
   // Camera centres of the model after the alignment, and of the truth.
   std::vector<Eigen::Vector3d> aligned_centers;
   std::vector<Eigen::Vector3d> ground_truth_centers;
+
+  // Per non-reference camera of the ground truth's rigs with more than one
+  // sensor (none: no rig figures), in the order of rig and camera ids: the
+  // error of the model's pose of the camera relative to its rig's
+  // reference camera, its rotation error (degrees) and its translation
+  // error relative to the true baseline, |t_model * s - t_true| / |t_true|
+  // (s the scale of ground_truth_from_model). Cameras are matched by the
+  // names of their images. The model's relative pose is its rig's if a rig
+  // of the model holds both cameras with their poses; otherwise the errors
+  // are the medians over the ground truth's frames of the errors of the
+  // relative pose of the model's images of each frame. NaN where the model
+  // has neither (the baseline error also when not aligned).
+  std::vector<camera_t> rig_camera_ids;
+  std::vector<double> rig_rotation_errors_deg;
+  std::vector<double> rig_baseline_errors;
+  // The largest of those errors (NaN when none was measured).
+  double rig_rotation_error_deg = 0.0;
+  double rig_baseline_error_fraction = 0.0;
 };
 
 ModelEvaluation EvaluateModel(const Reconstruction& model,

@@ -6,12 +6,14 @@
 #include "colmap/geometry/pose.h"
 #include "colmap/math/math.h"
 #include "colmap/math/random.h"
+#include "colmap/util/file.h"
 #include "colmap/util/logging.h"
-#include "colmap/util/misc.h"
+#include "colmap/util/string.h"
 
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <memory>
 #include <random>
 #include <unordered_set>
 
@@ -107,10 +109,7 @@ Rigid3d LookAt(const Eigen::Vector3d& center,
   R.row(1) = down.transpose();
   R.row(2) = forward.transpose();
   R = Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()).toRotationMatrix() * R;
-  Rigid3d cam_from_world;
-  cam_from_world.rotation = Eigen::Quaterniond(R);
-  cam_from_world.translation = -(R * center);
-  return cam_from_world;
+  return Rigid3d(Eigen::Quaterniond(R), -(R * center));
 }
 
 bool SyntheticSceneOptions::Check() const {
@@ -123,6 +122,11 @@ bool SyntheticSceneOptions::Check() const {
   CHECK_OPTION_GT(image_width, 0);
   CHECK_OPTION_GT(image_height, 0);
   CHECK_OPTION_GT(focal_length, 0);
+  CHECK_OPTION_GE(num_rig_cameras, 1);
+  // A rig's cameras are its sensors: one Camera each, shared by its images.
+  CHECK_OPTION(single_camera || num_rig_cameras == 1);
+  CHECK_OPTION_GT(rig_baseline, 0);
+  CHECK_OPTION_LT(std::abs(rig_yaw_deg), 45.0);
   CHECK_OPTION_GE(focal_length_noise, 0);
   CHECK_OPTION_LT(focal_length_noise, 0.3);
   CHECK_OPTION_GE(keypoint_noise, 0);
@@ -302,7 +306,7 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
                                   options.image_width,
                                   options.image_height);
   // The database holds the nominal focal length as a prior (as from EXIF),
-  // the ground truth the camera's true one.
+  // the ground truth the camera's true one. Returns the camera.
   auto add_camera = [&]() {
     Camera camera = camera_template;
     camera.has_prior_focal_length = true;
@@ -319,6 +323,37 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
     return camera.camera_id;
   };
 
+  // Where camera k of the rig stands in it: rig_baseline * k to the right of
+  // the reference camera (k = 0, the rig's frame), turned right by
+  // rig_yaw_deg * k about its vertical axis.
+  std::vector<Rigid3d> sensors_from_rig;
+  for (int k = 0; k < options.num_rig_cameras; ++k) {
+    const Eigen::Quaterniond rotation(Eigen::AngleAxisd(
+        -k * options.rig_yaw_deg * kDegToRad, Eigen::Vector3d::UnitY()));
+    sensors_from_rig.emplace_back(
+        rotation,
+        -(rotation * Eigen::Vector3d(k * options.rig_baseline, 0, 0)));
+  }
+
+  // A rig of the given cameras, the first its reference sensor, the others
+  // at their true sensor_from_rig, which the database holds as well (as
+  // rig_configurator writes a configuration with known poses). A single
+  // camera is the only sensor of a rig of its own, as the feature extractor
+  // writes them. Returns the rig.
+  auto add_rig = [&](const std::vector<camera_t>& camera_ids) {
+    Rig rig;
+    rig.AddRefSensor(reconstruction.Camera(camera_ids[0]).SensorId());
+    for (size_t k = 1; k < camera_ids.size(); ++k) {
+      rig.AddSensor(reconstruction.Camera(camera_ids[k]).SensorId(),
+                    sensors_from_rig[k]);
+    }
+    rig.SetRigId(database != nullptr
+                     ? database->WriteRig(rig)
+                     : static_cast<rig_t>(reconstruction.NumRigs() + 1));
+    reconstruction.AddRig(rig);
+    return rig.RigId();
+  };
+
   for (size_t i = 0; i < points.size(); ++i) {
     reconstruction.AddPoint3D(static_cast<point3D_t>(i + 1), Point3D());
     reconstruction.Point3D(static_cast<point3D_t>(i + 1)).xyz = points[i].xyz;
@@ -326,7 +361,8 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
 
   const double min_cos_surface =
       std::cos(kMaxSurfaceViewingAngleDeg * kDegToRad);
-  camera_t shared_camera_id = kInvalidCameraId;
+  rig_t shared_rig_id = kInvalidRigId;
+  std::vector<camera_t> shared_camera_ids;
   // Per image: the ids of the observed points, sorted, with their keypoint.
   std::vector<std::vector<std::pair<point3D_t, point2D_t>>> observations;
   std::vector<image_t> image_ids;
@@ -334,96 +370,130 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
 
   for (size_t pose_idx = 0; pose_idx < poses.size(); ++pose_idx) {
     const ScenePose& pose = poses[pose_idx];
-    camera_t camera_id;
+    // The cameras of the frame's rig, the reference camera first.
+    std::vector<camera_t> camera_ids;
+    rig_t rig_id;
     if (options.single_camera) {
-      if (shared_camera_id == kInvalidCameraId) {
-        shared_camera_id = add_camera();
+      if (shared_rig_id == kInvalidRigId) {
+        for (int k = 0; k < options.num_rig_cameras; ++k) {
+          shared_camera_ids.push_back(add_camera());
+        }
+        shared_rig_id = add_rig(shared_camera_ids);
       }
-      camera_id = shared_camera_id;
+      camera_ids = shared_camera_ids;
+      rig_id = shared_rig_id;
     } else {
-      camera_id = add_camera();
-    }
-    const Camera& camera = reconstruction.Camera(camera_id);
-    const Eigen::Vector3d center = pose.cam_from_world.rotation.inverse() *
-                                   -pose.cam_from_world.translation;
-
-    std::vector<Point2D> points2D;
-    for (size_t i = 0; i < points.size(); ++i) {
-      const ScenePoint& point = points[i];
-      const Eigen::Vector3d ray = center - point.xyz;
-      const double distance = ray.norm();
-      if (distance > options.max_viewing_distance) {
-        continue;
-      }
-      if (!point.normal.isZero() &&
-          point.normal.dot(ray) < min_cos_surface * distance) {
-        continue;
-      }
-      const Eigen::Vector3d point_in_cam = pose.cam_from_world * point.xyz;
-      if (point_in_cam.z() < 0.5) {
-        continue;
-      }
-      const Eigen::Vector2d xy =
-          camera.ImgFromCam(point_in_cam.hnormalized()) +
-          Eigen::Vector2d(random.Gaussian(options.keypoint_noise),
-                          random.Gaussian(options.keypoint_noise));
-      if (xy.x() < 0 || xy.y() < 0 || xy.x() >= camera.width ||
-          xy.y() >= camera.height) {
-        continue;
-      }
-      if (HiddenByTower(center, point.xyz, towers)) {
-        continue;
-      }
-      Point2D point2D;
-      point2D.xy = xy;
-      point2D.point3D_id = static_cast<point3D_t>(i + 1);
-      points2D.push_back(point2D);
-    }
-    for (int i = 0; i < options.num_distractor_keypoints; ++i) {
-      Point2D point2D;
-      point2D.xy = Eigen::Vector2d(random.Uniform(0, camera.width),
-                                   random.Uniform(0, camera.height));
-      points2D.push_back(point2D);
-    }
-    random.Shuffle(&points2D);
-
-    Image image;
-    image.SetName(StringPrintf("image%05d.jpg", static_cast<int>(pose_idx)));
-    image.SetCameraId(camera_id);
-    image.CamFromWorld() = pose.cam_from_world;
-    const image_t image_id = database != nullptr
-                                 ? database->WriteImage(image)
-                                 : static_cast<image_t>(pose_idx + 1);
-    image.SetImageId(image_id);
-    if (database != nullptr) {
-      FeatureKeypoints keypoints;
-      keypoints.reserve(points2D.size());
-      for (const Point2D& point2D : points2D) {
-        keypoints.emplace_back(static_cast<float>(point2D.xy.x()),
-                               static_cast<float>(point2D.xy.y()));
-      }
-      database->WriteKeypoints(image_id, keypoints);
+      camera_ids.push_back(add_camera());
+      rig_id = add_rig(camera_ids);
     }
 
-    std::vector<std::pair<point3D_t, point2D_t>> image_observations;
-    for (point2D_t point2D_idx = 0; point2D_idx < points2D.size();
-         ++point2D_idx) {
-      const point3D_t point3D_id = points2D[point2D_idx].point3D_id;
-      if (point3D_id != kInvalidPoint3DId) {
-        image_observations.emplace_back(point3D_id, point2D_idx);
-        reconstruction.Point3D(point3D_id)
-            .track.AddElement(image_id, point2D_idx);
-      }
-    }
-    std::sort(image_observations.begin(), image_observations.end());
-    observations.push_back(std::move(image_observations));
-    image_ids.push_back(image_id);
-    num_keypoints.push_back(static_cast<point2D_t>(points2D.size()));
+    // One image per camera of the rig, all in one frame (one snapshot of
+    // the rig) whose pose is the reference camera's.
+    Frame frame;
+    frame.SetRigId(rig_id);
+    std::vector<Image> frame_images;
+    for (size_t k = 0; k < camera_ids.size(); ++k) {
+      const Camera& camera = reconstruction.Camera(camera_ids[k]);
+      const Rigid3d cam_from_world =
+          k == 0 ? pose.cam_from_world
+                 : sensors_from_rig[k] * pose.cam_from_world;
+      const Eigen::Vector3d center = cam_from_world.TgtOriginInSrc();
 
-    image.SetPoints2D(points2D);
-    reconstruction.AddImage(std::move(image));
-    reconstruction.RegisterImage(image_id);
-    scene->image_cluster.emplace(image_id, pose.cluster);
+      std::vector<Point2D> points2D;
+      for (size_t i = 0; i < points.size(); ++i) {
+        const ScenePoint& point = points[i];
+        const Eigen::Vector3d ray = center - point.xyz;
+        const double distance = ray.norm();
+        if (distance > options.max_viewing_distance) {
+          continue;
+        }
+        if (!point.normal.isZero() &&
+            point.normal.dot(ray) < min_cos_surface * distance) {
+          continue;
+        }
+        const Eigen::Vector3d point_in_cam = cam_from_world * point.xyz;
+        if (point_in_cam.z() < 0.5) {
+          continue;
+        }
+        const Eigen::Vector2d xy =
+            *camera.ImgFromCam(point_in_cam) +
+            Eigen::Vector2d(random.Gaussian(options.keypoint_noise),
+                            random.Gaussian(options.keypoint_noise));
+        if (xy.x() < 0 || xy.y() < 0 || xy.x() >= camera.width ||
+            xy.y() >= camera.height) {
+          continue;
+        }
+        if (HiddenByTower(center, point.xyz, towers)) {
+          continue;
+        }
+        Point2D point2D;
+        point2D.xy = xy;
+        point2D.point3D_id = static_cast<point3D_t>(i + 1);
+        points2D.push_back(point2D);
+      }
+      for (int i = 0; i < options.num_distractor_keypoints; ++i) {
+        Point2D point2D;
+        point2D.xy = Eigen::Vector2d(random.Uniform(0, camera.width),
+                                     random.Uniform(0, camera.height));
+        points2D.push_back(point2D);
+      }
+      random.Shuffle(&points2D);
+
+      // A rig's images are named by camera folder, as rig_configurator
+      // expects them: the same name after the folder makes one frame.
+      Image image;
+      const std::string name =
+          StringPrintf("image%05d.jpg", static_cast<int>(pose_idx));
+      image.SetName(options.num_rig_cameras > 1
+                        ? StringPrintf("cam%d/", static_cast<int>(k)) + name
+                        : name);
+      image.SetCameraId(camera_ids[k]);
+      const image_t image_id =
+          database != nullptr
+              ? database->WriteImage(image)
+              : static_cast<image_t>(image_ids.size() + k + 1);
+      image.SetImageId(image_id);
+      image.SetPoints2D(points2D);
+      frame.AddDataId(image.DataId());
+      frame_images.push_back(std::move(image));
+    }
+    frame.SetFrameId(database != nullptr ? database->WriteFrame(frame)
+                                         : static_cast<frame_t>(pose_idx + 1));
+    frame.SetRigFromWorld(pose.cam_from_world);
+    const frame_t frame_id = frame.FrameId();
+    // Added with its pose, the frame is registered.
+    reconstruction.AddFrame(std::move(frame));
+
+    for (Image& image : frame_images) {
+      const image_t image_id = image.ImageId();
+      image.SetFrameId(frame_id);
+      if (database != nullptr) {
+        FeatureKeypoints keypoints;
+        keypoints.reserve(image.NumPoints2D());
+        for (const Point2D& point2D : image.Points2D()) {
+          keypoints.emplace_back(static_cast<float>(point2D.xy.x()),
+                                 static_cast<float>(point2D.xy.y()));
+        }
+        database->WriteKeypoints(image_id, keypoints);
+      }
+
+      std::vector<std::pair<point3D_t, point2D_t>> image_observations;
+      for (point2D_t point2D_idx = 0; point2D_idx < image.NumPoints2D();
+           ++point2D_idx) {
+        const point3D_t point3D_id = image.Point2D(point2D_idx).point3D_id;
+        if (point3D_id != kInvalidPoint3DId) {
+          image_observations.emplace_back(point3D_id, point2D_idx);
+          reconstruction.Point3D(point3D_id)
+              .track.AddElement(image_id, point2D_idx);
+        }
+      }
+      std::sort(image_observations.begin(), image_observations.end());
+      observations.push_back(std::move(image_observations));
+      image_ids.push_back(image_id);
+      num_keypoints.push_back(static_cast<point2D_t>(image.NumPoints2D()));
+      reconstruction.AddImage(std::move(image));
+      scene->image_cluster.emplace(image_id, pose.cluster);
+    }
   }
 
   // Points seen by fewer than two cameras are no part of the ground truth.
@@ -446,10 +516,10 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
     two_view_geometry.cam2_from_cam1 =
         image2.CamFromWorld() * Inverse(image1.CamFromWorld());
     two_view_geometry.E =
-        EssentialMatrixFromPose(two_view_geometry.cam2_from_cam1);
+        EssentialMatrixFromPose(*two_view_geometry.cam2_from_cam1);
     two_view_geometry.F = FundamentalFromEssentialMatrix(
         reconstruction.Camera(image2.CameraId()).CalibrationMatrix(),
-        two_view_geometry.E,
+        *two_view_geometry.E,
         reconstruction.Camera(image1.CameraId()).CalibrationMatrix());
     return two_view_geometry;
   };
@@ -479,6 +549,55 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
         std::min<size_t>(num_matches, std::min(free1.size(), free2.size()));
     for (size_t i = 0; i < num_added; ++i) {
       matches->emplace_back(free1[i], free2[i]);
+    }
+  };
+
+  // As add_random_matches, but each wrong match pairs a keypoint of image
+  // idx1 with a free keypoint of image idx2 that lies within
+  // kMaxEpipolarError pixels of its epipolar line (the true geometry's).
+  constexpr double kMaxEpipolarError = 4.0;
+  auto add_epipolar_matches = [&](const size_t idx1,
+                                  const size_t idx2,
+                                  const int num_matches,
+                                  FeatureMatches* matches) {
+    const Image& image1 = reconstruction.Image(image_ids[idx1]);
+    const Image& image2 = reconstruction.Image(image_ids[idx2]);
+    const Eigen::Matrix3d F = *two_view_geometry_of(idx1, idx2).F;
+    std::vector<char> used1(num_keypoints[idx1], 0);
+    std::vector<char> used2(num_keypoints[idx2], 0);
+    for (const FeatureMatch& match : *matches) {
+      used1[match.point2D_idx1] = 1;
+      used2[match.point2D_idx2] = 1;
+    }
+    std::vector<point2D_t> free1;
+    std::vector<point2D_t> free2;
+    for (point2D_t i = 0; i < num_keypoints[idx1]; ++i) {
+      if (!used1[i]) free1.push_back(i);
+    }
+    for (point2D_t i = 0; i < num_keypoints[idx2]; ++i) {
+      if (!used2[i]) free2.push_back(i);
+    }
+    random.Shuffle(&free1);
+    random.Shuffle(&free2);
+    int num_added = 0;
+    for (const point2D_t point2D_idx1 : free1) {
+      if (num_added == num_matches) {
+        break;
+      }
+      const Eigen::Vector3d line =
+          F * image1.Point2D(point2D_idx1).xy.homogeneous();
+      const double norm = line.head<2>().norm();
+      for (point2D_t& point2D_idx2 : free2) {
+        if (point2D_idx2 == kInvalidPoint2DIdx ||
+            std::abs(line.dot(image2.Point2D(point2D_idx2).xy.homogeneous())) >
+                kMaxEpipolarError * norm) {
+          continue;
+        }
+        matches->emplace_back(point2D_idx1, point2D_idx2);
+        point2D_idx2 = kInvalidPoint2DIdx;  // Used.
+        ++num_added;
+        break;
+      }
     }
   };
 
@@ -525,11 +644,13 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
       if (database == nullptr) {
         continue;
       }
-      add_random_matches(idx1,
-                         idx2,
-                         static_cast<int>(std::round(
-                             options.outlier_match_ratio * matches.size())),
-                         &matches);
+      const int num_outliers = static_cast<int>(
+          std::round(options.outlier_match_ratio * matches.size()));
+      if (options.epipolar_outliers) {
+        add_epipolar_matches(idx1, idx2, num_outliers, &matches);
+      } else {
+        add_random_matches(idx1, idx2, num_outliers, &matches);
+      }
       random.Shuffle(&matches);
       TwoViewGeometry two_view_geometry = two_view_geometry_of(idx1, idx2);
       two_view_geometry.inlier_matches = matches;
@@ -626,7 +747,7 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
       const int cluster1 = scene->image_cluster.at(image_ids[idx1]);
       const int cluster2 = scene->image_cluster.at(image_ids[idx2]);
       Rigid3d second_tower_from_first;
-      second_tower_from_first.translation.head<2>() =
+      second_tower_from_first.translation().head<2>() =
           towers[cluster2] - towers[cluster1];
       const Image& image1 = reconstruction.Image(image_ids[idx1]);
       const Image& image2 = reconstruction.Image(image_ids[idx2]);
@@ -636,10 +757,10 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
                                          second_tower_from_first *
                                          Inverse(image1.CamFromWorld());
       two_view_geometry.E =
-          EssentialMatrixFromPose(two_view_geometry.cam2_from_cam1);
+          EssentialMatrixFromPose(*two_view_geometry.cam2_from_cam1);
       two_view_geometry.F = FundamentalFromEssentialMatrix(
           reconstruction.Camera(image2.CameraId()).CalibrationMatrix(),
-          two_view_geometry.E,
+          *two_view_geometry.E,
           reconstruction.Camera(image1.CameraId()).CalibrationMatrix());
       two_view_geometry.inlier_matches = matches;
       database->WriteMatches(image_ids[idx1], image_ids[idx2], matches);
@@ -680,14 +801,14 @@ void PerturbReconstruction(const double max_rotation_deg,
   };
   const double step = translation_fraction *
                       EvaluateModel(*reconstruction, *reconstruction).extent;
-  for (const image_t image_id : reconstruction->RegImageIds()) {
-    Rigid3d& cam_from_world = reconstruction->Image(image_id).CamFromWorld();
+  for (const frame_t frame_id : reconstruction->RegFrameIds()) {
+    Rigid3d& rig_from_world = reconstruction->Frame(frame_id).RigFromWorld();
     const double angle =
         DegToRad(RandomUniformReal(-max_rotation_deg, max_rotation_deg));
-    cam_from_world.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(
-                                  angle, random_vector().normalized())) *
-                              cam_from_world.rotation;
-    cam_from_world.translation += step * random_vector();
+    rig_from_world.rotation() = Eigen::Quaterniond(Eigen::AngleAxisd(
+                                    angle, random_vector().normalized())) *
+                                rig_from_world.rotation();
+    rig_from_world.translation() += step * random_vector();
   }
   for (const point3D_t point3D_id : reconstruction->Point3DIds()) {
     reconstruction->Point3D(point3D_id).xyz += step * random_vector();

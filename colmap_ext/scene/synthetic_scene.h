@@ -19,7 +19,12 @@
 // by a tower.
 //
 // The database holds what COLMAP's feature extractor and matcher would store:
-// one camera (or one per image), images, keypoints (observations with
+// one camera (or one per image), each the only sensor of a rig of its own,
+// images, each in a frame of its own, or, with a multi-camera rig, what
+// `colmap rig_configurator` makes of them: one rig of one camera per rig
+// sensor with its true sensor_from_rig, and per camera position one frame
+// (one snapshot of the rig) of one image per camera; keypoints (observations
+// with
 // Gaussian noise, plus distractor keypoints without a 3D point, shuffled),
 // raw matches and two-view geometries whose inlier matches are the true
 // correspondences of every pair sharing at least `min_num_inliers` points,
@@ -70,6 +75,22 @@ struct SyntheticSceneOptions {
   // one camera per image.
   bool single_camera = true;
 
+  // Number of cameras of a rig that takes every picture (2: a stereo rig).
+  // Every camera position then becomes a frame, one snapshot of the rig,
+  // holding one image per camera; the position is the reference camera's
+  // (camera 0). Every camera of the rig is a Camera of its own (the same
+  // nominal intrinsics; needs `single_camera`), its images named
+  // "cam<k>/image<i>.jpg" (one folder per camera, as rig_configurator's
+  // image prefixes). 1: no rig, every image in a frame of its own.
+  int num_rig_cameras = 1;
+
+  // Camera k of the rig stands k * `rig_baseline` (metres) to the right of
+  // the reference camera, turned right by k * `rig_yaw_deg` about its
+  // vertical axis (0: parallel stereo, the usual rig; a few degrees: the
+  // cameras diverge to widen the rig's field of view).
+  double rig_baseline = 0.3;
+  double rig_yaw_deg = 0.0;
+
   // Relative standard deviation of every camera's true focal length around
   // `focal_length`, the value the database holds (as a focal length read
   // from EXIF, off by a few percent); 0: the database holds the true one.
@@ -90,6 +111,13 @@ struct SyntheticSceneOptions {
   // Fraction of wrong matches added to the inlier matches of every
   // verified pair (relative to its true matches).
   double outlier_match_ratio = 0.0;
+
+  // Whether those wrong matches satisfy the pair's epipolar geometry, each
+  // within 4 pixels of its epipolar line (COLMAP's default verification
+  // threshold), as the wrong matches a real matcher's geometric
+  // verification keeps; false: random keypoints, most of which a
+  // verification would have rejected.
+  bool epipolar_outliers = false;
 
   // Number of falsely verified pairs between images that share no points,
   // each with `false_pair_num_matches` random matches.
@@ -112,8 +140,9 @@ struct SyntheticSceneOptions {
 };
 
 struct SyntheticScene {
-  // The ground truth: cameras, registered images with their keypoints
-  // (points2D; those observing a point carry its id) and 3D points.
+  // The ground truth: cameras and their rigs, registered frames, images
+  // with their keypoints (points2D; those observing a point carry its id)
+  // and 3D points. Rig, frame, camera and image ids are the database's.
   Reconstruction ground_truth;
 
   // For every image: the landmark cluster it belongs to (0..num_clusters-1)
@@ -131,12 +160,13 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
                               SyntheticScene* scene,
                               Database* database);
 
-// A start for an adjustment to undo: every registered image of
-// `reconstruction` turned by up to `max_rotation_deg` about a random axis
-// and moved by up to `translation_fraction` of the extent of the camera
-// centres along each axis, every point moved as far, every camera's first
-// parameter (a focal length) scaled by `focal_length_factor`. The same seed
-// gives the same moves (COLMAP's random generator, seeded).
+// A start for an adjustment to undo: every registered frame of
+// `reconstruction` (with one image per frame: every registered image) turned
+// by up to `max_rotation_deg` about a random axis and moved by up to
+// `translation_fraction` of the extent of the camera centres along each axis,
+// every point moved as far, every camera's first parameter (a focal length)
+// scaled by `focal_length_factor`. The same seed gives the same moves
+// (COLMAP's random generator, seeded).
 void PerturbReconstruction(double max_rotation_deg,
                            double translation_fraction,
                            double focal_length_factor,

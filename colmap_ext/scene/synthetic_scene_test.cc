@@ -2,8 +2,10 @@
 
 #include "colmap_ext/util/testing.h"
 
-#include "colmap/util/misc.h"
+#include "colmap/math/math.h"
 
+#include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <map>
@@ -14,7 +16,7 @@
 namespace colmap {
 namespace {
 
-std::string ReadBytes(const std::string& path) {
+std::string ReadBytes(const std::filesystem::path& path) {
   std::ifstream file(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(file),
                      std::istreambuf_iterator<char>());
@@ -33,7 +35,7 @@ SyntheticSceneOptions SmallScene() {
 }
 
 TEST(SynthesizeCommunityScene, SameSeedSameBytes) {
-  const std::string test_dir = CreateTestFolder();
+  const std::filesystem::path test_dir = CreateTestFolder();
   SyntheticSceneOptions options = SmallScene();
   options.outlier_match_ratio = 0.1;
   options.num_false_pairs = 5;
@@ -41,29 +43,48 @@ TEST(SynthesizeCommunityScene, SameSeedSameBytes) {
     if (name == "c.db") {
       options.seed += 1;
     }
-    Database database(JoinPaths(test_dir, name));
+    const std::shared_ptr<Database> database = Database::Open(test_dir / name);
     SyntheticScene scene;
-    SynthesizeCommunityScene(options, &scene, &database);
+    SynthesizeCommunityScene(options, &scene, database.get());
   }
-  const std::string a = ReadBytes(JoinPaths(test_dir, "a.db"));
+  const std::string a = ReadBytes(test_dir / "a.db");
   EXPECT_GT(a.size(), 100000);
-  EXPECT_EQ(a, ReadBytes(JoinPaths(test_dir, "b.db")));
-  EXPECT_NE(a, ReadBytes(JoinPaths(test_dir, "c.db")));
+  EXPECT_EQ(a, ReadBytes(test_dir / "b.db"));
+  EXPECT_NE(a, ReadBytes(test_dir / "c.db"));
 }
 
 TEST(SynthesizeCommunityScene, DatabaseMatchesGroundTruth) {
-  const std::string test_dir = CreateTestFolder();
   SyntheticSceneOptions options = SmallScene();
   options.outlier_match_ratio = 0.1;
   options.num_false_pairs = 6;
-  Database database(JoinPaths(test_dir, "database.db"));
+  const std::shared_ptr<Database> database = Database::Open(
+      std::filesystem::path(CreateTestFolder()) / "database.db");
   SyntheticScene scene;
-  SynthesizeCommunityScene(options, &scene, &database);
+  SynthesizeCommunityScene(options, &scene, database.get());
   const Reconstruction& truth = scene.ground_truth;
 
   // Images: clusters and walkways as asked.
   ASSERT_EQ(truth.NumRegImages(), 3 * 12 + 3 * 10);
-  EXPECT_EQ(database.NumImages(), truth.NumRegImages());
+  EXPECT_EQ(database->NumImages(), truth.NumRegImages());
+
+  // As the feature extractor writes them: the camera in a rig of its own,
+  // every image in a frame of its own; the ground truth's are the same.
+  EXPECT_EQ(database->NumCameras(), 1);
+  EXPECT_EQ(database->NumRigs(), 1);
+  const Rig rig = database->ReadAllRigs().at(0);
+  EXPECT_EQ(rig.NumSensors(), 1);
+  EXPECT_EQ(rig.RefSensorId(), database->ReadAllCameras().at(0).SensorId());
+  EXPECT_EQ(truth.Rig(rig.RigId()).RefSensorId(), rig.RefSensorId());
+  ASSERT_EQ(database->NumFrames(), truth.NumRegFrames());
+  for (const Frame& frame : database->ReadAllFrames()) {
+    EXPECT_EQ(frame.RigId(), rig.RigId());
+    ASSERT_EQ(frame.NumDataIds(), 1);
+    const data_t& data_id = *frame.DataIds().begin();
+    const Image& image = truth.Image(static_cast<image_t>(data_id.id));
+    EXPECT_EQ(image.FrameId(), frame.FrameId());
+    EXPECT_EQ(image.DataId(), data_id);
+    EXPECT_TRUE(truth.Frame(frame.FrameId()).HasPose());
+  }
   std::map<int, int> cluster_sizes;
   for (const auto& image_and_cluster : scene.image_cluster) {
     ++cluster_sizes[image_and_cluster.second];
@@ -75,9 +96,9 @@ TEST(SynthesizeCommunityScene, DatabaseMatchesGroundTruth) {
   // noise.
   for (const image_t image_id : truth.RegImageIds()) {
     const Image& image = truth.Image(image_id);
-    const FeatureKeypoints keypoints = database.ReadKeypoints(image_id);
+    const FeatureKeypoints keypoints = database->ReadKeypoints(image_id);
     ASSERT_EQ(keypoints.size(), image.NumPoints2D());
-    EXPECT_EQ(database.ReadImage(image_id).Name(), image.Name());
+    EXPECT_EQ(database->ReadImage(image_id).Name(), image.Name());
     for (point2D_t idx = 0; idx < keypoints.size(); ++idx) {
       EXPECT_NEAR(keypoints[idx].x, image.Point2D(idx).xy.x(), 1e-3);
     }
@@ -89,25 +110,24 @@ TEST(SynthesizeCommunityScene, DatabaseMatchesGroundTruth) {
 
   // Verified pairs: true matches plus ~10% wrong ones; false pairs share
   // no point at all.
-  std::vector<image_pair_t> pair_ids;
-  std::vector<TwoViewGeometry> two_view_geometries;
-  database.ReadTwoViewGeometries(&pair_ids, &two_view_geometries);
-  ASSERT_EQ(static_cast<int>(pair_ids.size()),
+  const std::vector<std::pair<image_pair_t, TwoViewGeometry>>
+      two_view_geometries = database->ReadTwoViewGeometries();
+  ASSERT_EQ(static_cast<int>(two_view_geometries.size()),
             scene.num_verified_pairs + scene.num_false_pairs);
   EXPECT_EQ(scene.num_false_pairs, 6);
   int num_false = 0;
-  for (size_t i = 0; i < pair_ids.size(); ++i) {
-    const auto image_pair = Database::PairIdToImagePair(pair_ids[i]);
-    const Image& image1 = truth.Image(image_pair.first);
-    const Image& image2 = truth.Image(image_pair.second);
+  for (const auto& [pair_id, two_view_geometry] : two_view_geometries) {
+    const auto [image_id1, image_id2] = PairIdToImagePair(pair_id);
+    const Image& image1 = truth.Image(image_id1);
+    const Image& image2 = truth.Image(image_id2);
     int num_true = 0;
-    for (const FeatureMatch& match : two_view_geometries[i].inlier_matches) {
+    for (const FeatureMatch& match : two_view_geometry.inlier_matches) {
       const Point2D& point1 = image1.Point2D(match.point2D_idx1);
       const Point2D& point2 = image2.Point2D(match.point2D_idx2);
       num_true += point1.HasPoint3D() && point1.point3D_id == point2.point3D_id;
     }
     const int num_matches =
-        static_cast<int>(two_view_geometries[i].inlier_matches.size());
+        static_cast<int>(two_view_geometry.inlier_matches.size());
     if (num_true == 0) {
       ++num_false;
       EXPECT_EQ(num_matches, options.false_pair_num_matches);
@@ -117,6 +137,52 @@ TEST(SynthesizeCommunityScene, DatabaseMatchesGroundTruth) {
     }
   }
   EXPECT_EQ(num_false, 6);
+}
+
+// The wrong matches of a verified pair: random keypoints, or keypoints
+// that satisfy the pair's epipolar geometry, as a real matcher's survivors
+// of verification. Returns the largest and the median epipolar distance
+// (pixels, in the second image) of the wrong matches of every pair.
+std::pair<double, double> WrongMatchEpipolarDistances(
+    const bool epipolar_outliers) {
+  SyntheticSceneOptions options = SmallScene();
+  options.outlier_match_ratio = 0.1;
+  options.epipolar_outliers = epipolar_outliers;
+  const std::shared_ptr<Database> database = Database::Open(
+      std::filesystem::path(CreateTestFolder()) / "database.db");
+  SyntheticScene scene;
+  SynthesizeCommunityScene(options, &scene, database.get());
+  const Reconstruction& truth = scene.ground_truth;
+  std::vector<double> distances;
+  int num_true = 0;
+  for (const auto& [pair_id, two_view_geometry] :
+       database->ReadTwoViewGeometries()) {
+    const auto [image_id1, image_id2] = PairIdToImagePair(pair_id);
+    const Image& image1 = truth.Image(image_id1);
+    const Image& image2 = truth.Image(image_id2);
+    const Eigen::Matrix3d F = *two_view_geometry.F;
+    for (const FeatureMatch& match : two_view_geometry.inlier_matches) {
+      const Point2D& point1 = image1.Point2D(match.point2D_idx1);
+      const Point2D& point2 = image2.Point2D(match.point2D_idx2);
+      if (point1.HasPoint3D() && point1.point3D_id == point2.point3D_id) {
+        ++num_true;
+        continue;
+      }
+      const Eigen::Vector3d line = F * point1.xy.homogeneous();
+      distances.push_back(std::abs(line.dot(point2.xy.homogeneous())) /
+                          line.head<2>().norm());
+    }
+  }
+  EXPECT_NEAR(distances.size(), 0.1 * num_true, 0.02 * num_true);
+  std::sort(distances.begin(), distances.end());
+  return {distances.back(), distances[distances.size() / 2]};
+}
+
+TEST(SynthesizeCommunityScene, EpipolarOutliersSatisfyTheTwoViewGeometry) {
+  const auto [epipolar_max, epipolar_median] = WrongMatchEpipolarDistances(true);
+  EXPECT_LE(epipolar_max, 4.0 + 1e-6);
+  const auto [random_max, random_median] = WrongMatchEpipolarDistances(false);
+  EXPECT_GT(random_median, 20.0);
 }
 
 TEST(SynthesizeCommunityScene, ClustersAreDenseWalkwaysSparse) {
@@ -154,17 +220,17 @@ TEST(SynthesizeCommunityScene, ClustersAreDenseWalkwaysSparse) {
 }
 
 TEST(SynthesizeCommunityScene, FocalLengthsOffTheNominalValue) {
-  const std::string test_dir = CreateTestFolder();
   SyntheticSceneOptions options = SmallScene();
   options.single_camera = false;
   options.focal_length_noise = 0.05;
-  Database database(JoinPaths(test_dir, "database.db"));
+  const std::shared_ptr<Database> database = Database::Open(
+      std::filesystem::path(CreateTestFolder()) / "database.db");
   SyntheticScene scene;
-  SynthesizeCommunityScene(options, &scene, &database);
+  SynthesizeCommunityScene(options, &scene, database.get());
   // The database holds the nominal focal length as a prior; the truth, one
   // camera per image, spreads around it by about 5%.
   double sum_sq = 0;
-  for (const Camera& camera : database.ReadAllCameras()) {
+  for (const Camera& camera : database->ReadAllCameras()) {
     EXPECT_TRUE(camera.has_prior_focal_length);
     EXPECT_EQ(camera.FocalLength(), options.focal_length);
     const double relative =
@@ -173,8 +239,11 @@ TEST(SynthesizeCommunityScene, FocalLengthsOffTheNominalValue) {
         1;
     sum_sq += relative * relative;
   }
-  ASSERT_EQ(database.NumCameras(), scene.ground_truth.NumRegImages());
-  const double spread = std::sqrt(sum_sq / database.NumCameras());
+  ASSERT_EQ(database->NumCameras(), scene.ground_truth.NumRegImages());
+  // One rig per camera.
+  EXPECT_EQ(database->NumRigs(), database->NumCameras());
+  EXPECT_EQ(scene.ground_truth.NumRigs(), database->NumCameras());
+  const double spread = std::sqrt(sum_sq / database->NumCameras());
   EXPECT_GT(spread, 0.03);
   EXPECT_LT(spread, 0.08);
   // Keypoints are the projections by the true cameras.
@@ -184,25 +253,21 @@ TEST(SynthesizeCommunityScene, FocalLengthsOffTheNominalValue) {
 }
 
 TEST(SynthesizeCommunityScene, RepeatedStructurePairsAgreeWithAStackedTower) {
-  const std::string test_dir = CreateTestFolder();
   SyntheticSceneOptions options = SmallScene();
   options.num_clusters = 2;
   options.num_images_per_link = 0;
   options.num_repeated_structure_pairs = 8;
-  Database database(JoinPaths(test_dir, "database.db"));
+  const std::shared_ptr<Database> database = Database::Open(
+      std::filesystem::path(CreateTestFolder()) / "database.db");
   SyntheticScene scene;
-  SynthesizeCommunityScene(options, &scene, &database);
+  SynthesizeCommunityScene(options, &scene, database.get());
   const Reconstruction& truth = scene.ground_truth;
   EXPECT_EQ(scene.num_repeated_structure_pairs, 8);
 
-  std::vector<image_pair_t> pair_ids;
-  std::vector<TwoViewGeometry> two_view_geometries;
-  database.ReadTwoViewGeometries(&pair_ids, &two_view_geometries);
   int num_cross = 0;
-  for (size_t i = 0; i < pair_ids.size(); ++i) {
-    image_t image_id1;
-    image_t image_id2;
-    std::tie(image_id1, image_id2) = Database::PairIdToImagePair(pair_ids[i]);
+  for (const auto& [pair_id, two_view_geometry] :
+       database->ReadTwoViewGeometries()) {
+    const auto [image_id1, image_id2] = PairIdToImagePair(pair_id);
     const int cluster1 = scene.image_cluster.at(image_id1);
     const int cluster2 = scene.image_cluster.at(image_id2);
     if (cluster1 == cluster2) {
@@ -213,11 +278,12 @@ TEST(SynthesizeCommunityScene, RepeatedStructurePairsAgreeWithAStackedTower) {
     // other: shifted by the towers' offset, the two 3D points coincide.
     const Image& image1 = truth.Image(image_id1);
     const Image& image2 = truth.Image(image_id2);
-    const auto& matches = two_view_geometries[i].inlier_matches;
+    const auto& matches = two_view_geometry.inlier_matches;
     ASSERT_GE(static_cast<int>(matches.size()), options.min_num_inliers);
     // (The ground truth keeps only points seen twice in their own cluster;
     // matches of the others cannot be checked.)
-    const Rigid3d cam2_from_cam1 = two_view_geometries[i].cam2_from_cam1;
+    ASSERT_TRUE(two_view_geometry.cam2_from_cam1.has_value());
+    const Rigid3d cam2_from_cam1 = *two_view_geometry.cam2_from_cam1;
     int num_checked = 0;
     for (const FeatureMatch& match : matches) {
       const Point2D& point1 = image1.Point2D(match.point2D_idx1);
@@ -241,10 +307,108 @@ TEST(SynthesizeCommunityScene, RepeatedStructurePairsAgreeWithAStackedTower) {
   EXPECT_EQ(num_cross, 8);
 }
 
+TEST(SynthesizeCommunityScene, StereoRigAsRigConfiguratorWritesIt) {
+  SyntheticSceneOptions options = SmallScene();
+  options.num_rig_cameras = 2;
+  options.rig_baseline = 0.4;
+  options.rig_yaw_deg = 3.0;
+  const std::shared_ptr<Database> database = Database::Open(
+      std::filesystem::path(CreateTestFolder()) / "database.db");
+  SyntheticScene scene;
+  SynthesizeCommunityScene(options, &scene, database.get());
+  const Reconstruction& truth = scene.ground_truth;
+
+  // Every camera position is a snapshot of the rig: two images.
+  const int num_positions = 3 * 12 + 3 * 10;
+  ASSERT_EQ(truth.NumRegImages(), 2 * num_positions);
+  EXPECT_EQ(database->NumImages(), truth.NumRegImages());
+  EXPECT_EQ(truth.NumRegFrames(), num_positions);
+
+  // One rig of two cameras, the second at its true pose in the rig: 0.4 m
+  // to the right of the first, turned right by 3 degrees.
+  EXPECT_EQ(database->NumCameras(), 2);
+  ASSERT_EQ(database->NumRigs(), 1);
+  const Rig rig = database->ReadAllRigs().at(0);
+  ASSERT_EQ(rig.NumSensors(), 2);
+  ASSERT_EQ(rig.NonRefSensors().size(), 1);
+  const sensor_t ref_sensor_id = rig.RefSensorId();
+  const auto& [sensor_id, sensor_from_rig] = *rig.NonRefSensors().begin();
+  ASSERT_TRUE(sensor_from_rig.has_value());
+  EXPECT_LT((Inverse(*sensor_from_rig).translation() -
+             Eigen::Vector3d(options.rig_baseline, 0, 0))
+                .norm(),
+            1e-9);
+  const Eigen::Vector3d viewing_direction =
+      sensor_from_rig->rotation().inverse() * Eigen::Vector3d::UnitZ();
+  EXPECT_NEAR(RadToDeg(std::atan2(viewing_direction.x(),
+                                  viewing_direction.z())),
+              options.rig_yaw_deg,
+              1e-9);
+  EXPECT_NEAR(viewing_direction.y(), 0, 1e-12);
+  const Rig& true_rig = truth.Rig(rig.RigId());
+  EXPECT_EQ(true_rig.RefSensorId(), ref_sensor_id);
+  EXPECT_LT((true_rig.SensorFromRig(sensor_id).ToMatrix() -
+             sensor_from_rig->ToMatrix())
+                .norm(),
+            1e-12);
+
+  // Frames of one image per camera, named by camera folder, the same name
+  // after it; the true relative pose of the images is the rig's.
+  ASSERT_EQ(database->NumFrames(), num_positions);
+  for (const Frame& frame : database->ReadAllFrames()) {
+    EXPECT_EQ(frame.RigId(), rig.RigId());
+    ASSERT_EQ(frame.NumDataIds(), 2);
+    EXPECT_TRUE(truth.Frame(frame.FrameId()).HasPose());
+    std::map<sensor_t, const Image*> images;
+    for (const data_t& data_id : frame.DataIds()) {
+      const Image& image = truth.Image(static_cast<image_t>(data_id.id));
+      EXPECT_EQ(image.FrameId(), frame.FrameId());
+      EXPECT_EQ(image.DataId(), data_id);
+      EXPECT_EQ(database->ReadImage(image.ImageId()).Name(), image.Name());
+      images.emplace(data_id.sensor_id, &image);
+    }
+    ASSERT_EQ(images.size(), 2);
+    const Image& ref_image = *images.at(ref_sensor_id);
+    const Image& image = *images.at(sensor_id);
+    ASSERT_EQ(ref_image.Name().substr(0, 5), "cam0/");
+    ASSERT_EQ(image.Name().substr(0, 5), "cam1/");
+    EXPECT_EQ(ref_image.Name().substr(5), image.Name().substr(5));
+    const Rigid3d cam_from_ref =
+        image.CamFromWorld() * Inverse(ref_image.CamFromWorld());
+    EXPECT_LT((cam_from_ref.ToMatrix() - sensor_from_rig->ToMatrix()).norm(),
+              1e-9);
+    EXPECT_NEAR(
+        (image.ProjectionCenter() - ref_image.ProjectionCenter()).norm(),
+        options.rig_baseline,
+        1e-9);
+  }
+
+  // The images of a snapshot see much the same: they are matched too.
+  int num_verified_within_frames = 0;
+  for (const auto& [pair_id, two_view_geometry] :
+       database->ReadTwoViewGeometries()) {
+    const auto [image_id1, image_id2] = PairIdToImagePair(pair_id);
+    num_verified_within_frames +=
+        truth.Image(image_id1).FrameId() == truth.Image(image_id2).FrameId();
+  }
+  EXPECT_GT(num_verified_within_frames, num_positions / 2);
+
+  // Keypoints are the true cameras' projections.
+  Reconstruction reprojected = truth;
+  reprojected.UpdatePoint3DErrors();
+  EXPECT_LT(reprojected.ComputeMeanReprojectionError(), 1.0);
+}
+
 TEST(SyntheticSceneOptions, Check) {
   SyntheticSceneOptions options;
   EXPECT_TRUE(options.Check());
   options.num_clusters = 0;
+  EXPECT_FALSE(options.Check());
+  options = SyntheticSceneOptions();
+  options.num_rig_cameras = 2;
+  EXPECT_TRUE(options.Check());
+  // A rig's cameras are one Camera each, shared by their images.
+  options.single_camera = false;
   EXPECT_FALSE(options.Check());
 }
 

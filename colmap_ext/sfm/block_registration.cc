@@ -29,7 +29,7 @@ BlockRegistration EstimateBlockRegistration(
     if (!merged.ExistsImage(image_id)) {
       continue;
     }
-    if (!merged.IsImageRegistered(image_id)) {
+    if (!merged.Image(image_id).HasPose()) {
       registration.image_ids.push_back(image_id);
       continue;
     }
@@ -88,22 +88,30 @@ void ApplyBlockRegistration(const Reconstruction& model,
   // model's.
   std::unordered_set<camera_t> kept_camera_ids;
   for (const image_t image_id : merged->RegImageIds()) {
-    if (!model.ExistsImage(image_id) || !model.IsImageRegistered(image_id)) {
+    if (!model.ExistsImage(image_id) || !model.Image(image_id).HasPose()) {
       kept_camera_ids.insert(merged->Image(image_id).CameraId());
     }
   }
+  // Each frame takes the pose of its first image in the model (the frame's
+  // images share it); frames registered already stay as they are.
+  std::unordered_set<frame_t> registered_frame_ids;
   for (const image_t image_id : registration.image_ids) {
     const Image& model_image = model.Image(image_id);
-    Image& image = merged->Image(image_id);
-    THROW_CHECK(!image.IsRegistered());
+    const Image& image = merged->Image(image_id);
     THROW_CHECK_EQ(image.CameraId(), model_image.CameraId());
     if (kept_camera_ids.insert(image.CameraId()).second) {
       merged->Camera(image.CameraId()).params =
           model.Camera(image.CameraId()).params;
     }
-    image.CamFromWorld() = TransformCameraWorld(registration.merged_from_model,
-                                                model_image.CamFromWorld());
-    merged->RegisterImage(image_id);
+    Frame& frame = merged->Frame(image.FrameId());
+    if (!registered_frame_ids.insert(frame.FrameId()).second) {
+      continue;
+    }
+    THROW_CHECK(!frame.HasPose());
+    frame.SetCamFromWorld(image.CameraId(),
+                          TransformCameraWorld(registration.merged_from_model,
+                                               model_image.CamFromWorld()));
+    merged->RegisterFrame(frame.FrameId());
   }
 }
 

@@ -19,8 +19,9 @@
 // points (half by default) and maps every shared image's pose in the
 // community model onto its pose in the merged model (CheckSharedImages).
 // The model's other images are then registered at once with their poses
-// mapped by it, keeping the shape of the community's model, as the
-// similarity averaging would have placed it. The refinement's track
+// mapped by it (frame by frame: a frame's images share one pose), keeping
+// the shape of the community's model, as the similarity averaging would
+// have placed it. The refinement's track
 // building and bundle adjustments follow as for any joined community.
 
 #pragma once
@@ -61,7 +62,8 @@ struct BlockRegistration {
   int num_correspondences = 0;
   int num_inliers = 0;
   // The model's registered images that the merged model holds, unregistered:
-  // those to register with the transformed poses.
+  // those to register with the transformed poses (whole frames, as the
+  // database groups images into frames in both models).
   std::vector<image_t> image_ids;
 };
 
@@ -72,8 +74,9 @@ BlockRegistration EstimateBlockRegistration(
     const Reconstruction& merged,
     const BlockRegistrationOptions& options);
 
-// Registers `registration.image_ids` in `merged` with their poses in `model`
-// mapped by `registration.merged_from_model`. A camera that only images of
+// Registers the frames of `registration.image_ids` in `merged`, each with
+// the pose of its first image in `model` mapped by
+// `registration.merged_from_model`. A camera that only images of
 // the model use among the registered images of `merged` (the shared images
 // registered one by one, if any) takes the model's intrinsics: they were
 // refined there over all its images, where the merged model has the

@@ -73,7 +73,7 @@ TEST_F(BlockRegistrationTest, PlacesTheModelsOtherImagesAsTheGroundTruth) {
   // The merged model knows only the database's prior of the community's
   // cameras; the model refined them.
   for (const image_t image_id : community_images_) {
-    if (!merged.IsImageRegistered(image_id)) {
+    if (!merged.Image(image_id).HasPose()) {
       merged.Camera(merged.Image(image_id).CameraId()).params[0] *= 1.3;
     }
   }
@@ -84,7 +84,7 @@ TEST_F(BlockRegistrationTest, PlacesTheModelsOtherImagesAsTheGroundTruth) {
   EXPECT_EQ(block.image_ids.size(), community_images_.size() - 3);
   EXPECT_GT(block.num_inliers, 100);
   EXPECT_NEAR(
-      block.merged_from_model.scale * model_from_world_.scale, 1.0, 1e-6);
+      block.merged_from_model.scale() * model_from_world_.scale(), 1.0, 1e-6);
 
   const size_t num_registered = merged.NumRegImages();
   ApplyBlockRegistration(model_, block, &merged);
@@ -92,11 +92,11 @@ TEST_F(BlockRegistrationTest, PlacesTheModelsOtherImagesAsTheGroundTruth) {
   for (const image_t image_id : community_images_) {
     const Image& image = merged.Image(image_id);
     const Image& truth = scene_.ground_truth.Image(image_id);
-    ASSERT_TRUE(image.IsRegistered());
+    ASSERT_TRUE(image.HasPose());
     EXPECT_LT((image.ProjectionCenter() - truth.ProjectionCenter()).norm(),
               1e-6);
-    EXPECT_LT(RadToDeg(image.CamFromWorld().rotation.angularDistance(
-                  truth.CamFromWorld().rotation)),
+    EXPECT_LT(RadToDeg(image.CamFromWorld().rotation().angularDistance(
+                  truth.CamFromWorld().rotation())),
               1e-6);
     EXPECT_EQ(merged.Camera(image.CameraId()).params,
               scene_.ground_truth.Camera(image.CameraId()).params)
@@ -155,13 +155,14 @@ TEST_F(BlockRegistrationTest, TooFewSharedImagesRegisterNothing) {
 TEST_F(BlockRegistrationTest, AContradictingSharedImageRegistersNothing) {
   Reconstruction merged = Merged(4);
   const image_t wrong_image_id = *community_images_.begin();
-  Image& wrong = merged.Image(wrong_image_id);
+  const Image& wrong = merged.Image(wrong_image_id);
   const Eigen::Vector3d center = wrong.ProjectionCenter();
   const Eigen::Quaterniond turned =
-      wrong.CamFromWorld().rotation *
+      wrong.CamFromWorld().rotation() *
       Eigen::Quaterniond(
           Eigen::AngleAxisd(DegToRad(30.0), Eigen::Vector3d::UnitY()));
-  wrong.CamFromWorld() = Rigid3d(turned, -(turned * center));
+  merged.Frame(wrong.FrameId())
+      .SetCamFromWorld(wrong.CameraId(), Rigid3d(turned, -(turned * center)));
   ASSERT_LT((wrong.ProjectionCenter() - center).norm(), 1e-9);
 
   const BlockRegistration block =

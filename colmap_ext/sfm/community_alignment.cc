@@ -2,8 +2,9 @@
 
 #include "colmap/math/random.h"
 #include "colmap/util/logging.h"
-#include "colmap/util/misc.h"
+#include "colmap/util/string.h"
 #include "colmap/util/threading.h"
+#include "colmap/util/types.h"
 
 #include <algorithm>
 #include <cmath>
@@ -83,15 +84,15 @@ PairOutcome EstimatePairSimilarity(
     const PairwiseSimilarityOptions& pairwise_options,
     const CovisibilityCheckOptions& covisibility_options) {
   SetPRNGSeed(static_cast<unsigned>(kDefaultPRNGSeed) +
-              static_cast<unsigned>(Database::ImagePairToPairId(
-                  static_cast<image_t>(community1 + 1),
-                  static_cast<image_t>(community2 + 1))));
+              static_cast<unsigned>(
+                  ImagePairToPairId(static_cast<image_t>(community1 + 1),
+                                    static_cast<image_t>(community2 + 1))));
   PairOutcome outcome;
   // Images on the border that both models registered: each of their
   // keypoints with a 3D point in both is a correspondence.
   std::vector<CrossPairMatches> cross_pairs;
   for (const image_t image_id : model1.RegImageIds()) {
-    if (model2.ExistsImage(image_id) && model2.IsImageRegistered(image_id)) {
+    if (model2.ExistsImage(image_id) && model2.Image(image_id).HasPose()) {
       CrossPairMatches shared;
       shared.image_id1 = image_id;
       shared.image_id2 = image_id;
@@ -178,7 +179,7 @@ PairOutcome EstimatePairSimilarity(
                          "shared images placed alike %d of %d (largest "
                          "difference %.1f deg, %.2f spreads): used",
                          similarity.num_inliers,
-                         similarity.second_from_first.scale,
+                         similarity.second_from_first.scale(),
                          covisibility.num_verified_cross_pairs,
                          covisibility.num_predicted_cross_pairs,
                          covisibility.num_verified_internal_pairs,
@@ -210,8 +211,8 @@ PairOutcome EstimatePairSimilarity(
     for (size_t k = num_shared_images; k < cross_pairs.size(); ++k) {
       const PointCorrespondences pair_points =
           FindPointCorrespondences(model1, model2, {cross_pairs[k]});
-      const image_pair_t pair_id = Database::ImagePairToPairId(
-          cross_pairs[k].image_id1, cross_pairs[k].image_id2);
+      const image_pair_t pair_id =
+          ImagePairToPairId(cross_pairs[k].image_id1, cross_pairs[k].image_id2);
       size_t num_rejected_points = 0;
       for (size_t j = 0; j < outcome.rejected.size(); ++j) {
         size_t num_supporting = 0;
@@ -255,13 +256,12 @@ CommunitySimilarities EstimateCommunitySimilarities(
   std::unordered_set<image_pair_t> verified_pairs;
   for (const ViewGraph::Edge& edge : view_graph.Edges()) {
     verified_pairs.insert(
-        Database::ImagePairToPairId(view_graph.ImageIds()[edge.vertex1],
-                                    view_graph.ImageIds()[edge.vertex2]));
+        ImagePairToPairId(view_graph.ImageIds()[edge.vertex1],
+                          view_graph.ImageIds()[edge.vertex2]));
   }
   const auto is_verified_pair = [&verified_pairs](const image_t image_id1,
                                                   const image_t image_id2) {
-    return verified_pairs.count(
-               Database::ImagePairToPairId(image_id1, image_id2)) > 0;
+    return verified_pairs.count(ImagePairToPairId(image_id1, image_id2)) > 0;
   };
 
   // COLMAP's matchers record every pair they compare, those whose
@@ -278,7 +278,7 @@ CommunitySimilarities EstimateCommunitySimilarities(
         return true;
       }
       std::lock_guard<std::mutex> lock(database_mutex);
-      return database.ExistsInlierMatches(image_id1, image_id2);
+      return database.ExistsTwoViewGeometry(image_id1, image_id2);
     };
   }
 

@@ -3,8 +3,7 @@
 #include "colmap_ext/scene/synthetic_scene.h"
 #include "colmap_ext/util/testing.h"
 
-#include "colmap/util/misc.h"
-
+#include <filesystem>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -43,9 +42,9 @@ class EstimateCommunitySimilaritiesTest : public ::testing::Test {
     options.close_loop = false;
     options.keypoint_noise = 0.3;
     options.seed = 21;
-    database_ = std::make_unique<Database>(
-        JoinPaths(CreateTestFolder(),
-                  "database" + std::to_string(num_points_per_link) + ".db"));
+    database_ = Database::Open(
+        std::filesystem::path(CreateTestFolder()) /
+        ("database" + std::to_string(num_points_per_link) + ".db"));
     scene_ = SyntheticScene();
     community_of_image_.clear();
     SynthesizeCommunityScene(options, &scene_, database_.get());
@@ -81,7 +80,7 @@ class EstimateCommunitySimilaritiesTest : public ::testing::Test {
     auto model = std::make_shared<Reconstruction>(scene_.ground_truth);
     for (const image_t image_id : scene_.ground_truth.RegImageIds()) {
       if (community_of_image.at(image_id) != c) {
-        model->DeRegisterImage(image_id);
+        model->DeRegisterFrame(model->Image(image_id).FrameId());
       }
     }
     if (point_noise > 0) {
@@ -96,7 +95,7 @@ class EstimateCommunitySimilaritiesTest : public ::testing::Test {
   }
 
   SyntheticScene scene_;
-  std::unique_ptr<Database> database_;
+  std::shared_ptr<Database> database_;
   ViewGraph view_graph_;
   std::unordered_map<image_t, int> community_of_image_;
   std::vector<Sim3d> world_to_community_;
@@ -120,13 +119,14 @@ TEST_F(EstimateCommunitySimilaritiesTest, RecoversTheRelativeSimilarity) {
   EXPECT_EQ(similarity.community2, 1);
   const Sim3d expected =
       world_to_community_[1] * Inverse(world_to_community_[0]);
-  EXPECT_NEAR(similarity.second_from_first.scale, expected.scale, 1e-2);
-  EXPECT_LT(
-      similarity.second_from_first.rotation.angularDistance(expected.rotation),
-      1e-2);
-  EXPECT_LT(
-      (similarity.second_from_first.translation - expected.translation).norm(),
-      0.1);
+  EXPECT_NEAR(similarity.second_from_first.scale(), expected.scale(), 1e-2);
+  EXPECT_LT(similarity.second_from_first.rotation().angularDistance(
+                expected.rotation()),
+            1e-2);
+  EXPECT_LT((similarity.second_from_first.translation() -
+             expected.translation())
+                .norm(),
+            0.1);
   // Every inlier pair names points of the two models.
   ASSERT_EQ(similarity.point3D_ids.size(), similarity.points1.size());
   ASSERT_GE(similarity.num_inliers,
@@ -159,8 +159,8 @@ TEST_F(EstimateCommunitySimilaritiesTest, ReportsRejectedTransformsWithPairs) {
   const RejectedSimilarity& rejected = result.rejected_similarities[0];
   const Sim3d expected =
       world_to_community_[1] * Inverse(world_to_community_[0]);
-  EXPECT_LT(rejected.similarity.second_from_first.rotation.angularDistance(
-                expected.rotation),
+  EXPECT_LT(rejected.similarity.second_from_first.rotation().angularDistance(
+                expected.rotation()),
             1e-2);
   EXPECT_GE(rejected.similarity.points1.size(),
             static_cast<size_t>(one_hypothesis.min_num_inliers));

@@ -2,7 +2,7 @@
 
 #include "colmap/math/math.h"
 #include "colmap/util/logging.h"
-#include "colmap/util/misc.h"
+#include "colmap/util/string.h"
 
 #include <algorithm>
 

@@ -1,6 +1,7 @@
 #include "colmap_ext/sfm/community_merge.h"
 
 #include "colmap_ext/graph/view_graph.h"
+#include "colmap_ext/scene/filtered_database_cache.h"
 #include "colmap_ext/sfm/community_alignment.h"
 #include "colmap_ext/sfm/link_confirmation.h"
 #include "colmap_ext/sfm/part_offers.h"
@@ -9,8 +10,10 @@
 #include "colmap/math/random.h"
 #include "colmap/scene/database.h"
 #include "colmap/scene/database_cache.h"
-#include "colmap/util/misc.h"
+#include "colmap/util/logging.h"
+#include "colmap/util/string.h"
 #include "colmap/util/timer.h"
+#include "colmap/util/types.h"
 
 #include <algorithm>
 #include <map>
@@ -63,14 +66,16 @@ void AddExtraCommunities(const CommunityWorkspace& workspace,
                          std::vector<std::string>* model_paths,
                          CommunityMergeResult* result) {
   const int c = record.community_id;
-  std::unordered_set<image_t> taken_image_ids(
-      (*models)[c]->RegImageIds().begin(), (*models)[c]->RegImageIds().end());
+  const std::vector<image_t> reg_image_ids = (*models)[c]->RegImageIds();
+  std::unordered_set<image_t> taken_image_ids(reg_image_ids.begin(),
+                                              reg_image_ids.end());
   for (int index = 1; index <= record.num_other_models; ++index) {
     auto other_model = std::make_shared<Reconstruction>();
     const std::string path = workspace.CommunityOtherModelPath(c, index);
     other_model->Read(path);
+    const std::vector<image_t> other_reg_image_ids = other_model->RegImageIds();
     std::unordered_set<image_t> owned_image_ids;
-    for (const image_t image_id : other_model->RegImageIds()) {
+    for (const image_t image_id : other_reg_image_ids) {
       if (communities->own_image_ids[c].count(image_id) > 0 &&
           taken_image_ids.count(image_id) == 0) {
         owned_image_ids.insert(image_id);
@@ -86,8 +91,8 @@ void AddExtraCommunities(const CommunityWorkspace& workspace,
           static_cast<int>(owned_image_ids.size()));
       continue;
     }
-    taken_image_ids.insert(other_model->RegImageIds().begin(),
-                           other_model->RegImageIds().end());
+    taken_image_ids.insert(other_reg_image_ids.begin(),
+                           other_reg_image_ids.end());
     const int extra = static_cast<int>(models->size());
     LOG(INFO) << StringPrintf(
         "Community %d's model %d of %d (%d images, %d of its own that no "
@@ -158,9 +163,10 @@ void CommunityMerge::EstimateSimilarities() {
   SetPRNGSeed(kDefaultPRNGSeed);
 
   // One connection for the view graph and the cross edges' matches.
-  const Database database(options_.database_path);
+  const std::shared_ptr<Database> database =
+      Database::Open(options_.database_path);
   view_graph_ = std::make_unique<ViewGraph>(ViewGraph::Read(
-      database, options_.min_num_matches, options_.image_names));
+      *database, options_.min_num_matches, options_.image_names));
   result_.num_view_graph_images = static_cast<int>(view_graph_->NumVertices());
   result_.num_view_graph_edges = static_cast<int>(view_graph_->NumEdges());
   communities_ = GroupImagesByCommunity(*view_graph_, plan_);
@@ -174,7 +180,7 @@ void CommunityMerge::EstimateSimilarities() {
   cross_edges_ = GroupCrossEdges(*view_graph_, communities_.community_of_image);
   result_.num_community_pairs = static_cast<int>(cross_edges_.size());
   similarities_ = EstimateCommunitySimilarities(
-      database,
+      *database,
       *view_graph_,
       cross_edges_,
       std::vector<std::shared_ptr<const Reconstruction>>(models_.begin(),
@@ -379,8 +385,8 @@ void CommunityMerge::MergeParts() {
   std::vector<std::shared_ptr<Reconstruction>>& merged_models = result_.models;
   std::unordered_set<image_t> registered_image_ids;
   const auto keep_model = [&](std::shared_ptr<Reconstruction> model) {
-    registered_image_ids.insert(model->RegImageIds().begin(),
-                                model->RegImageIds().end());
+    const std::vector<image_t> reg_image_ids = model->RegImageIds();
+    registered_image_ids.insert(reg_image_ids.begin(), reg_image_ids.end());
     merged_models.push_back(std::move(model));
   };
   for (int part = 0; part < averaging_.NumParts(); ++part) {
@@ -569,7 +575,7 @@ std::shared_ptr<Reconstruction> CommunityMerge::MergePart(
     const image_t image_id2 = view_graph_->ImageIds()[edge.vertex2];
     if (part_image_names.count(view_graph_->ImageNames()[edge.vertex1]) &&
         part_image_names.count(view_graph_->ImageNames()[edge.vertex2]) &&
-        !false_pairs_.count(Database::ImagePairToPairId(image_id1, image_id2))) {
+        !false_pairs_.count(ImagePairToPairId(image_id1, image_id2))) {
       connected_image_ids.insert(image_id1);
       connected_image_ids.insert(image_id2);
     }
@@ -629,17 +635,22 @@ std::shared_ptr<Reconstruction> CommunityMerge::MergePart(
   // The correspondences, once the communities' models are released and
   // the joined cameras aligned (MergedModelRefiner).
   const auto load_correspondences = [&]() {
+    DatabaseCache::Options database_cache_options;
+    database_cache_options.min_num_matches =
+        static_cast<size_t>(options_.min_num_matches);
+    database_cache_options.ignore_watermarks =
+        options_.incremental_options.ignore_watermarks;
+    database_cache_options.image_names = part_image_names;
     std::shared_ptr<DatabaseCache> database_cache;
     {
-      const Database database(options_.database_path);
-      database_cache = DatabaseCache::Create(
-          database,
-          static_cast<size_t>(options_.min_num_matches),
-          options_.incremental_options.ignore_watermarks,
-          part_image_names,
+      const std::shared_ptr<Database> database =
+          Database::Open(options_.database_path);
+      database_cache = CreateFilteredDatabaseCache(
+          *database,
+          database_cache_options,
           [this](const image_t image_id1, const image_t image_id2) {
             return false_pairs_.count(
-                       Database::ImagePairToPairId(image_id1, image_id2)) == 0;
+                       ImagePairToPairId(image_id1, image_id2)) == 0;
           });
     }
     // Building the correspondence graph grows a vector per keypoint and
@@ -679,7 +690,8 @@ std::shared_ptr<Reconstruction> CommunityMerge::MergePart(
       refinement.num_block_registered_images,
       refinement.num_reregistered_images);
   if (options_.incremental_options.extract_colors) {
-    merged->ExtractColorsForAllImages(options_.image_path);
+    merged->ExtractColorsForAllImages(options_.image_path,
+                                      options_.incremental_options.num_threads);
   }
   return merged;
 }

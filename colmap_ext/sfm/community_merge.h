@@ -34,7 +34,7 @@
 #include "colmap_ext/sfm/pairwise_similarity.h"
 #include "colmap_ext/sfm/similarity_averaging.h"
 
-#include "colmap/controllers/incremental_mapper.h"
+#include "colmap/controllers/incremental_pipeline.h"
 #include "colmap/scene/reconstruction.h"
 
 #include <memory>
@@ -96,7 +96,7 @@ struct CommunityMergeOptions {
 
   // The incremental mapper's options for the registration, triangulation
   // and bundle adjustment of the merged models.
-  IncrementalMapperOptions incremental_options;
+  IncrementalPipelineOptions incremental_options;
 
   bool Check() const;
 };

@@ -8,8 +8,10 @@
 #include "colmap_ext/util/testing.h"
 
 #include "colmap/geometry/pose.h"
-#include "colmap/util/misc.h"
+#include "colmap/scene/database.h"
+#include "colmap/util/file.h"
 
+#include <filesystem>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -24,25 +26,23 @@ namespace {
 class MergeCommunitiesTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    const std::string test_dir = CreateTestFolder();
+    const std::filesystem::path test_dir = CreateTestFolder();
     SyntheticSceneOptions scene_options;
     scene_options.num_clusters = 3;
     scene_options.num_images_per_cluster = 24;
     scene_options.num_images_per_link = 20;
     scene_options.seed = 17;
-    options_.database_path = JoinPaths(test_dir, "database.db");
-    {
-      Database database(options_.database_path);
-      SynthesizeCommunityScene(scene_options, &scene_, &database);
-    }
+    options_.database_path = (test_dir / "database.db").string();
+    const std::shared_ptr<Database> database =
+        Database::Open(options_.database_path);
+    SynthesizeCommunityScene(scene_options, &scene_, database.get());
     options_.incremental_options.num_threads = 1;
-    workspace_ = std::make_unique<CommunityWorkspace>(
-        JoinPaths(test_dir, "out"));
+    workspace_ =
+        std::make_unique<CommunityWorkspace>((test_dir / "out").string());
     CreateDirIfNotExists(workspace_->CommunitiesDir(), /*recursive=*/true);
 
     const ViewGraph view_graph =
-        ViewGraph::Read(Database(options_.database_path),
-                        options_.min_num_matches);
+        ViewGraph::Read(*database, options_.min_num_matches);
     const WeightedGraph graph =
         view_graph.ToWeightedGraph(ViewGraphEdgeWeight::kUnit);
     const CommunityPartition partition = DetectCommunities(

@@ -5,10 +5,11 @@
 #include "colmap_ext/util/process_memory.h"
 
 #include "colmap/estimators/bundle_adjustment.h"
+#include "colmap/estimators/bundle_adjustment_ceres.h"
 #include "colmap/sfm/incremental_mapper.h"
 #include "colmap/sfm/observation_manager.h"
 #include "colmap/util/logging.h"
-#include "colmap/util/misc.h"
+#include "colmap/util/string.h"
 #include "colmap/util/threading.h"
 #include "colmap/util/timer.h"
 
@@ -31,68 +32,130 @@ void JoinReconstructions(
   THROW_CHECK_NOTNULL(point3D_ids);
   THROW_CHECK_EQ(merged->NumImages(), 0);
 
-  auto owns = [&](const size_t r, const image_t image_id) {
-    return owned_image_ids[r].count(image_id) > 0 &&
-           reconstructions[r]->ExistsImage(image_id) &&
-           reconstructions[r]->IsImageRegistered(image_id);
-  };
-
-  // Cameras: the parameters of the reconstruction owning the most images
-  // with them.
-  std::unordered_map<camera_t, std::pair<size_t, size_t>> camera_source;
   for (size_t r = 0; r < reconstructions.size(); ++r) {
-    std::unordered_map<camera_t, size_t> num_images_per_camera;
-    for (const image_t image_id : reconstructions[r]->RegImageIds()) {
-      if (owns(r, image_id)) {
-        ++num_images_per_camera[reconstructions[r]->Image(image_id).CameraId()];
+    reconstructions[r]->Transform(world_from_reconstruction[r]);
+  }
+
+  // Each registered frame comes whole from the first reconstruction that
+  // registered it and owns one of its images: a frame's images share one
+  // pose and stay together.
+  std::unordered_map<frame_t, size_t> frame_source;
+  std::unordered_map<image_t, size_t> image_owner;
+  for (size_t r = 0; r < reconstructions.size(); ++r) {
+    const Reconstruction& reconstruction = *reconstructions[r];
+    for (const frame_t frame_id : reconstruction.RegFrameIds()) {
+      bool owns_image = false;
+      for (const data_t& data_id : reconstruction.Frame(frame_id).ImageIds()) {
+        if (owned_image_ids[r].count(data_id.id) == 0) {
+          continue;
+        }
+        owns_image = true;
+        THROW_CHECK(image_owner.emplace(data_id.id, r).second)
+            << "Image " << reconstruction.Image(data_id.id).Name()
+            << " is owned by two reconstructions.";
       }
-    }
-    for (const auto& camera_and_count : num_images_per_camera) {
-      auto& source = camera_source[camera_and_count.first];
-      if (camera_and_count.second > source.second) {
-        source = {r, camera_and_count.second};
+      if (owns_image) {
+        frame_source.emplace(frame_id, r);
       }
     }
   }
-  for (const auto& camera_and_source : camera_source) {
-    merged->AddCamera(reconstructions[camera_and_source.second.first]->Camera(
-        camera_and_source.first));
+  auto takes_frame = [&](const size_t r, const frame_t frame_id) {
+    const auto it = frame_source.find(frame_id);
+    return it != frame_source.end() && it->second == r;
+  };
+  auto owns = [&](const size_t r, const image_t image_id) {
+    return reconstructions[r]->ExistsImage(image_id) &&
+           takes_frame(r, reconstructions[r]->Image(image_id).FrameId());
+  };
+
+  // Cameras and rigs: those of the reconstruction owning the most images
+  // with them (frames of them); a rig's other cameras come with it.
+  std::unordered_map<camera_t, std::pair<size_t, size_t>> camera_source;
+  std::unordered_map<rig_t, std::pair<size_t, size_t>> rig_source;
+  for (size_t r = 0; r < reconstructions.size(); ++r) {
+    const Reconstruction& reconstruction = *reconstructions[r];
+    std::unordered_map<camera_t, size_t> num_images_per_camera;
+    std::unordered_map<rig_t, size_t> num_frames_per_rig;
+    for (const frame_t frame_id : reconstruction.RegFrameIds()) {
+      if (!takes_frame(r, frame_id)) {
+        continue;
+      }
+      const Frame& frame = reconstruction.Frame(frame_id);
+      ++num_frames_per_rig[frame.RigId()];
+      for (const data_t& data_id : frame.ImageIds()) {
+        ++num_images_per_camera[reconstruction.Image(data_id.id).CameraId()];
+      }
+    }
+    for (const auto& [camera_id, num_images] : num_images_per_camera) {
+      auto& source = camera_source[camera_id];
+      if (num_images > source.second) {
+        source = {r, num_images};
+      }
+    }
+    for (const auto& [rig_id, num_frames] : num_frames_per_rig) {
+      auto& source = rig_source[rig_id];
+      if (num_frames > source.second) {
+        source = {r, num_frames};
+      }
+    }
+  }
+  for (const auto& [camera_id, source] : camera_source) {
+    merged->AddCamera(reconstructions[source.first]->Camera(camera_id));
+  }
+  for (const auto& [rig_id, source] : rig_source) {
+    const Reconstruction& reconstruction = *reconstructions[source.first];
+    const Rig& rig = reconstruction.Rig(rig_id);
+    for (const sensor_t& sensor_id : rig.SensorIds()) {
+      if (sensor_id.type == SensorType::CAMERA &&
+          !merged->ExistsCamera(sensor_id.id)) {
+        merged->AddCamera(reconstruction.Camera(sensor_id.id));
+      }
+    }
+    merged->AddRig(rig);
+  }
+
+  // Frames and their images, keypoints without points, with their poses.
+  for (size_t r = 0; r < reconstructions.size(); ++r) {
+    const Reconstruction& reconstruction = *reconstructions[r];
+    for (const frame_t frame_id : reconstruction.RegFrameIds()) {
+      if (!takes_frame(r, frame_id)) {
+        continue;
+      }
+      const Frame& frame = reconstruction.Frame(frame_id);
+      Frame merged_frame;
+      merged_frame.SetFrameId(frame_id);
+      merged_frame.SetRigId(frame.RigId());
+      for (const data_t& data_id : frame.DataIds()) {
+        merged_frame.AddDataId(data_id);
+      }
+      merged->AddFrame(std::move(merged_frame));
+      for (const data_t& data_id : frame.ImageIds()) {
+        const Image& image = reconstruction.Image(data_id.id);
+        Image merged_image;
+        merged_image.SetImageId(image.ImageId());
+        merged_image.SetName(image.Name());
+        merged_image.SetCameraId(image.CameraId());
+        merged_image.SetFrameId(frame_id);
+        std::vector<Eigen::Vector2d> points2D;
+        points2D.reserve(image.NumPoints2D());
+        for (const Point2D& point2D : image.Points2D()) {
+          points2D.push_back(point2D.xy);
+        }
+        merged_image.SetPoints2D(points2D);
+        merged->AddImage(std::move(merged_image));
+      }
+      merged->Frame(frame_id).SetRigFromWorld(frame.RigFromWorld());
+      merged->RegisterFrame(frame_id);
+    }
   }
 
   point3D_ids->assign(reconstructions.size(), {});
   for (size_t r = 0; r < reconstructions.size(); ++r) {
-    Reconstruction& reconstruction = *reconstructions[r];
-    reconstruction.Transform(world_from_reconstruction[r]);
-
-    for (const image_t image_id : reconstruction.RegImageIds()) {
-      if (!owns(r, image_id)) {
-        continue;
-      }
-      const Image& image = reconstruction.Image(image_id);
-      THROW_CHECK(!merged->ExistsImage(image_id))
-          << "Image " << image.Name() << " is owned by two reconstructions.";
-      Image merged_image;
-      merged_image.SetImageId(image_id);
-      merged_image.SetName(image.Name());
-      merged_image.SetCameraId(image.CameraId());
-      merged_image.CamFromWorld() = image.CamFromWorld();
-      std::vector<Eigen::Vector2d> points2D;
-      points2D.reserve(image.NumPoints2D());
-      for (const Point2D& point2D : image.Points2D()) {
-        points2D.push_back(point2D.xy);
-      }
-      merged_image.SetPoints2D(points2D);
-      merged->AddImage(std::move(merged_image));
-      merged->RegisterImage(image_id);
-    }
-  }
-
-  for (size_t r = 0; r < reconstructions.size(); ++r) {
     auto& ids = (*point3D_ids)[r];
     ids.reserve(reconstructions[r]->NumPoints3D());
-    for (const auto& point3D : reconstructions[r]->Points3D()) {
+    for (const auto& [point3D_id, point3D] : reconstructions[r]->Points3D()) {
       Track track;
-      for (const TrackElement& track_el : point3D.second.track.Elements()) {
+      for (const TrackElement& track_el : point3D.track.Elements()) {
         if (owns(r, track_el.image_id)) {
           track.AddElement(track_el);
         }
@@ -101,9 +164,8 @@ void JoinReconstructions(
         continue;
       }
       ids.emplace(
-          point3D.first,
-          merged->AddPoint3D(
-              point3D.second.xyz, std::move(track), point3D.second.color));
+          point3D_id,
+          merged->AddPoint3D(point3D.xyz, std::move(track), point3D.color));
     }
   }
 }
@@ -177,23 +239,29 @@ std::shared_ptr<Reconstruction> RestrictToImages(
 namespace {
 
 // Ceres options of the refinement's adjustments of the registered images of
-// `reconstruction`: the linear solver as COLMAP's BundleAdjuster chooses it
-// (dense Schur up to 50 images, sparse up to 1000, iterative Schur above),
-// or with `sparse_solver` Ceres' sparse Schur solver (SuiteSparse) at any
-// size. The solver starts from the options' trust region radius and stops
-// once an iteration lowers the cost by less than their relative function
-// tolerance.
+// `reconstruction`: the linear solver as COLMAP's Ceres bundle adjuster
+// chooses it (by default dense Schur up to 50 images, sparse up to 1000,
+// iterative Schur above), or with `sparse_solver` Ceres' sparse Schur solver
+// (SuiteSparse) at any size. The solver starts from the options' trust
+// region radius and stops once an iteration lowers the cost by less than
+// their relative function tolerance.
 ceres::Solver::Options RefinementSolverOptions(
     const BundleAdjustmentOptions& options,
     const MergedModelRefinementOptions& refinement,
     const Reconstruction& reconstruction) {
+  const CeresBundleAdjustmentOptions& ceres_options =
+      *THROW_CHECK_NOTNULL(options.ceres);
   const size_t num_images = reconstruction.NumRegImages();
-  ceres::Solver::Options solver_options = options.solver_options;
+  ceres::Solver::Options solver_options = ceres_options.solver_options;
   const bool has_sparse =
       solver_options.sparse_linear_algebra_library_type != ceres::NO_SPARSE;
-  if (num_images <= 50) {
+  if (num_images <= static_cast<size_t>(
+                        ceres_options.max_num_images_direct_dense_cpu_solver)) {
     solver_options.linear_solver_type = ceres::DENSE_SCHUR;
-  } else if (num_images <= 1000 && has_sparse) {
+  } else if (num_images <=
+                 static_cast<size_t>(
+                     ceres_options.max_num_images_direct_sparse_cpu_solver) &&
+             has_sparse) {
     solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
   } else {
     solver_options.linear_solver_type = ceres::ITERATIVE_SCHUR;
@@ -210,17 +278,17 @@ ceres::Solver::Options RefinementSolverOptions(
   return solver_options;
 }
 
-// Global bundle adjustment of all registered images, the gauge fixed as
-// COLMAP's mapper fixes it (first image, one coordinate of the second),
-// over all observations or, with `refinement.reduced_adjustment`, on the
-// selected tracks followed by the other points with the cameras fixed
-// (where the selected tracks hold few enough of the observations).
+// Global bundle adjustment of all registered frames, the gauge fixed as
+// COLMAP's mapper fixes it (one frame, one coordinate of a second), over all
+// observations or, with `refinement.reduced_adjustment`, on the selected
+// tracks followed by the other points with the cameras fixed (where the
+// selected tracks hold few enough of the observations).
 bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
                         const MergedModelRefinementOptions& refinement,
                         ObservationManager* observation_manager,
                         Reconstruction* reconstruction) {
-  const std::vector<image_t>& reg_image_ids = reconstruction->RegImageIds();
-  if (reg_image_ids.size() < 2) {
+  const size_t num_reg_images = reconstruction->NumRegImages();
+  if (num_reg_images < 2) {
     return false;
   }
   observation_manager->FilterObservationsWithNegativeDepth();
@@ -262,7 +330,7 @@ bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
   }
   LOG(INFO) << StringPrintf(
       "Bundle adjustment of %d images, %d residuals: %s",
-      static_cast<int>(reg_image_ids.size()),
+      static_cast<int>(num_reg_images),
       summary.num_residuals,
       SolverSummaryToString(
           solver_options, summary, summary.total_time_in_seconds)
@@ -271,9 +339,10 @@ bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
 }
 
 BundleAdjustmentOptions RobustOptions(BundleAdjustmentOptions options) {
-  options.loss_function_type =
-      BundleAdjustmentOptions::LossFunctionType::SOFT_L1;
-  options.loss_function_scale = 1.0;
+  THROW_CHECK_NOTNULL(options.ceres);
+  options.ceres->loss_function_type =
+      CeresBundleAdjustmentOptions::LossFunctionType::SOFT_L1;
+  options.ceres->loss_function_scale = 1.0;
   return options;
 }
 
@@ -293,25 +362,30 @@ void AlignCameras(const MergedModelRefinementOptions& options,
   observation_manager->FilterObservationsWithNegativeDepth();
   std::unordered_set<point3D_t> kept;
   // Every point seen from two communities: these tie them together.
-  for (const auto& point3D : reconstruction->Points3D()) {
+  for (const auto& [point3D_id, point3D] : reconstruction->Points3D()) {
     int community = -1;
-    for (const TrackElement& track_el : point3D.second.track.Elements()) {
+    for (const TrackElement& track_el : point3D.track.Elements()) {
       const auto it = community_of_image.find(track_el.image_id);
       const int other = it == community_of_image.end() ? -2 : it->second;
       if (community != -1 && other != community) {
-        kept.insert(point3D.first);
+        kept.insert(point3D_id);
         break;
       }
       community = other;
     }
   }
+  // Per image, the longest tracks (a point a single image holds constrains
+  // nothing).
   for (const image_t image_id : reconstruction->RegImageIds()) {
     std::vector<std::pair<size_t, point3D_t>> points;
     for (const Point2D& point2D : reconstruction->Image(image_id).Points2D()) {
-      if (point2D.HasPoint3D()) {
-        points.emplace_back(
-            reconstruction->Point3D(point2D.point3D_id).track.Length(),
-            point2D.point3D_id);
+      if (!point2D.HasPoint3D()) {
+        continue;
+      }
+      const size_t track_length =
+          reconstruction->Point3D(point2D.point3D_id).track.Length();
+      if (track_length >= 2) {
+        points.emplace_back(track_length, point2D.point3D_id);
       }
     }
     const size_t num_kept =
@@ -365,7 +439,7 @@ bool MergedModelRefinementOptions::Check() const {
 
 MergedModelRefiner::MergedModelRefiner(
     const MergedModelRefinementOptions& options,
-    const IncrementalMapperOptions& mapper_options,
+    const IncrementalPipelineOptions& mapper_options,
     std::function<std::shared_ptr<const DatabaseCache>()> load_correspondences,
     const std::unordered_map<image_t, int>& community_of_image,
     const std::vector<std::shared_ptr<const Reconstruction>>& offered_models,
@@ -438,7 +512,7 @@ void MergedModelRefiner::BeginMapper() {
                   database_cache->Images().end(),
                   [&](const auto& image) {
                     return reconstruction_->ExistsImage(image.first) &&
-                           reconstruction_->IsImageRegistered(image.first);
+                           reconstruction_->Image(image.first).HasPose();
                   })) {
     for (const point3D_t point3D_id : reconstruction_->Point3DIds()) {
       reconstruction_->DeletePoint3D(point3D_id);
@@ -453,7 +527,8 @@ size_t MergedModelRefiner::NumRegisteredAgain() const {
       std::count_if(deregistered_images_.begin(),
                     deregistered_images_.end(),
                     [&](const image_t image_id) {
-                      return reconstruction_->IsImageRegistered(image_id);
+                      return reconstruction_->ExistsImage(image_id) &&
+                             reconstruction_->Image(image_id).HasPose();
                     }));
 }
 
@@ -469,7 +544,7 @@ void MergedModelRefiner::RegisterOfferedBlocks() {
     size_t num_shared_images = 0;
     for (const image_t image_id : model.RegImageIds()) {
       num_shared_images += reconstruction_->ExistsImage(image_id) &&
-                           reconstruction_->IsImageRegistered(image_id);
+                           reconstruction_->Image(image_id).HasPose();
     }
     if (num_shared_images == num_tried_shared_images_[k]) {
       continue;
@@ -522,7 +597,12 @@ size_t MergedModelRefiner::RegisterRemainingImages(const bool log_none) {
       const auto filterings = num_filterings_.find(image_id);
       if ((filterings == num_filterings_.end() || filterings->second < 2) &&
           mapper_->RegisterNextImage(incremental_, image_id)) {
-        mapper_->TriangulateImage(triangulation_, image_id);
+        // The image registers its frame: all the frame's images are
+        // triangulated.
+        const Frame& frame = *reconstruction_->Image(image_id).FramePtr();
+        for (const data_t& data_id : frame.ImageIds()) {
+          mapper_->TriangulateImage(triangulation_, data_id.id);
+        }
         mapper_->IterativeLocalRefinement(
             mapper_options_.ba_local_max_refinements,
             mapper_options_.ba_local_max_refinement_change,
@@ -614,12 +694,16 @@ void MergedModelRefiner::DeregisterMisplacedImages() {
   // community placed an image of its own 6 units off (extent 11), by
   // inliers no other community shared; in the merged model it kept 39
   // observations of its visible points, where the median image kept 2011.
+  // A misplaced image's frame is deregistered whole: its images share the
+  // pose.
   constexpr double kMinObservedVisibleFraction = 0.1;
   ObservationManager& observations = mapper_->ObservationManager();
-  std::vector<image_t> misplaced_image_ids;
+  std::vector<frame_t> misplaced_frame_ids;
+  std::unordered_set<frame_t> misplaced_frame_id_set;
   double min_fraction = 1;
   for (const image_t image_id : reconstruction_->RegImageIds()) {
-    const size_t num_observed = reconstruction_->Image(image_id).NumPoints3D();
+    const Image& image = reconstruction_->Image(image_id);
+    const size_t num_observed = image.NumPoints3D();
     const size_t num_visible = observations.NumVisiblePoints3D(image_id);
     const double fraction =
         num_visible == 0 ? 1.0
@@ -628,41 +712,48 @@ void MergedModelRefiner::DeregisterMisplacedImages() {
     if ((num_observed <
              static_cast<size_t>(incremental_.abs_pose_min_num_inliers) ||
          fraction < kMinObservedVisibleFraction) &&
-        deregistered_images_.insert(image_id).second) {
-      misplaced_image_ids.push_back(image_id);
+        deregistered_images_.count(image_id) == 0 &&
+        misplaced_frame_id_set.insert(image.FrameId()).second) {
+      misplaced_frame_ids.push_back(image.FrameId());
     }
   }
   LOG(INFO) << StringPrintf(
       "Lowest share of an image's visible points it observes: %.3f",
       min_fraction);
-  for (const image_t image_id : misplaced_image_ids) {
-    observations.DeRegisterImage(image_id);
+  size_t num_misplaced_images = 0;
+  for (const frame_t frame_id : misplaced_frame_ids) {
+    for (const data_t& data_id : reconstruction_->Frame(frame_id).ImageIds()) {
+      deregistered_images_.insert(data_id.id);
+      ++num_misplaced_images;
+    }
+    observations.DeRegisterFrame(frame_id);
   }
-  if (!misplaced_image_ids.empty()) {
+  if (!misplaced_frame_ids.empty()) {
     // The mapper's per-camera counts learn of them.
     mapper_->EndReconstruction(/*discard=*/false);
     mapper_->BeginReconstruction(reconstruction_);
     LOG(INFO) << StringPrintf(
         "Deregistered %d images that observe few of their visible points, "
         "to register them again",
-        static_cast<int>(misplaced_image_ids.size()));
+        static_cast<int>(num_misplaced_images));
   }
 }
 
-void MergedModelRefiner::FilterImages() {
-  // As the incremental mapper after each global refinement: images whose
-  // camera came out implausible (focal length or distortion beyond
-  // Mapper.min/max_focal_length_ratio and max_extra_param) are
-  // deregistered, to be registered again with their camera reset to the
-  // database's (IncrementalMapper::RegisterNextImage). An image filtered a
-  // second time is not registered again: its camera cannot be estimated
-  // from what the model sees of it, and each new try would cost a round.
+void MergedModelRefiner::FilterFrames() {
+  // As the incremental mapper after each global refinement: frames with an
+  // image whose camera came out implausible (focal length or distortion
+  // beyond Mapper.min/max_focal_length_ratio and max_extra_param) or without
+  // observations are deregistered, to be registered again with their camera
+  // reset to the database's (IncrementalMapper::RegisterNextImage). An image
+  // filtered a second time is not registered again: its camera cannot be
+  // estimated from what the model sees of it, and each new try would cost a
+  // round.
   const std::vector<image_t> reg_image_ids = reconstruction_->RegImageIds();
-  if (mapper_->FilterImages(incremental_) == 0) {
+  if (mapper_->FilterFrames(incremental_) == 0) {
     return;
   }
   for (const image_t image_id : reg_image_ids) {
-    if (!reconstruction_->IsImageRegistered(image_id)) {
+    if (!reconstruction_->Image(image_id).HasPose()) {
       ++summary_.num_filtered_images;
       deregistered_images_.insert(image_id);
       ++num_filterings_[image_id];
@@ -700,7 +791,7 @@ void MergedModelRefiner::AdjustInRounds() {
       mapper_->BeginReconstruction(reconstruction_);
     }
     DeregisterMisplacedImages();
-    FilterImages();
+    FilterFrames();
     const size_t num_registered = RegisterRemainingImages(/*log_none=*/false);
     // Pairs the first triangulation left under-reconstructed (a border
     // still a little apart) are triangulated again with the adjusted poses,
@@ -728,7 +819,7 @@ void MergedModelRefiner::AdjustInRounds() {
   }
   // Images whose camera is still implausible stay out of the last
   // adjustment, as they stay out of the incremental mapper's model.
-  FilterImages();
+  FilterFrames();
   // The correspondences are not needed any more: the last adjustment runs
   // without them in memory.
   ReleaseCorrespondences();

@@ -21,7 +21,7 @@
 #include "colmap_ext/sfm/block_registration.h"
 #include "colmap_ext/sfm/reduced_bundle_adjustment.h"
 
-#include "colmap/controllers/incremental_mapper.h"
+#include "colmap/controllers/incremental_pipeline.h"
 #include "colmap/geometry/sim3.h"
 #include "colmap/scene/database_cache.h"
 #include "colmap/scene/reconstruction.h"
@@ -37,14 +37,18 @@
 namespace colmap {
 
 // Transforms every reconstruction into the global frame and joins their
-// cameras, images and points into `merged` (which must be empty). Each image
-// is taken from the one reconstruction that owns it (`owned_image_ids`; an
-// image registered by several, as on community borders, is owned by one);
-// the other reconstructions' observations in it are dropped, and points left
-// without observations too. A camera used by several reconstructions takes
-// the parameters of the one owning the most images with it. `point3D_ids`
-// receives, per reconstruction, the new id of each of its points that was
-// kept. The reconstructions are transformed in place.
+// rigs, cameras, registered frames with their images, and points into
+// `merged` (which must be empty). Each image is taken from the one
+// reconstruction that owns it (`owned_image_ids`; an image registered by
+// several, as on community borders, is owned by one), with its whole frame
+// (a frame whose images several reconstructions own comes from the first of
+// them: a frame's images stay together); the other reconstructions'
+// observations in the frame's images are dropped, and points left without
+// observations too. A camera (rig) used by several reconstructions takes the
+// parameters of the one owning the most images (frames) with it. Ids of
+// rigs, cameras, frames and images are kept. `point3D_ids` receives, per
+// reconstruction, the new id of each of its points that was kept. The
+// reconstructions are transformed in place.
 void JoinReconstructions(
     const std::vector<Reconstruction*>& reconstructions,
     const std::vector<Sim3d>& world_from_reconstruction,
@@ -60,11 +64,11 @@ size_t MergeCorrespondingPoints(
     const std::vector<std::pair<point3D_t, point3D_t>>& point3D_pairs,
     Reconstruction* reconstruction);
 
-// The reconstruction without the registered images outside `image_ids`
-// (e.g. a community model without the images it borrowed from its
-// neighbours), their observations, and the points left with fewer than two
-// observations. Returns `reconstruction` itself if all its registered images
-// are in `image_ids`, a new reconstruction otherwise.
+// The reconstruction without the registered frames that have none of their
+// images in `image_ids` (e.g. a community model without the images it
+// borrowed from its neighbours), their observations, and the points left
+// with fewer than two observations. Returns `reconstruction` itself if all
+// its registered images are in `image_ids`, a new reconstruction otherwise.
 std::shared_ptr<Reconstruction> RestrictToImages(
     const std::unordered_set<image_t>& image_ids,
     std::shared_ptr<Reconstruction> reconstruction);
@@ -160,7 +164,7 @@ struct MergedModelRefinementOptions {
   bool reload_correspondences = true;
 
   // Use Ceres' sparse direct Schur solver at any size. Without it, the
-  // solver is chosen as COLMAP's BundleAdjuster chooses it: the iterative
+  // solver is chosen as COLMAP's bundle adjuster chooses it: the iterative
   // Schur solver above 1000 images, whose memory grows with the problem
   // alone (a direct solver's factorization grows faster), but whose inexact
   // steps follow the weakly constrained directions of a long open scene
@@ -216,7 +220,8 @@ struct MergedModelRefinementSummary {
   // Images the refinement deregistered (misplaced: they observe few of
   // their visible points; or filtered) and registered again.
   int num_reregistered_images = 0;
-  // Images deregistered because their camera came out implausible.
+  // Images deregistered because a camera of their frame came out
+  // implausible.
   int num_filtered_images = 0;
   double initial_mean_reprojection_error = 0.0;
   double final_mean_reprojection_error = 0.0;
@@ -233,12 +238,14 @@ struct MergedModelRefinementSummary {
 // adjustment round; the cache is released before the last adjustment.
 // `offered_models` are the models (each in its own frame) of communities
 // whose images are offered to the refinement, registered as blocks with
-// `register_offered_blocks`.
+// `register_offered_blocks`. As in the incremental mapper, images are
+// registered, deregistered and filtered with their whole frame (rig
+// snapshot); the model's frames and rigs are the database's.
 class MergedModelRefiner {
  public:
   MergedModelRefiner(
       const MergedModelRefinementOptions& options,
-      const IncrementalMapperOptions& mapper_options,
+      const IncrementalPipelineOptions& mapper_options,
       std::function<std::shared_ptr<const DatabaseCache>()>
           load_correspondences,
       const std::unordered_map<image_t, int>& community_of_image,
@@ -265,8 +272,9 @@ class MergedModelRefiner {
   // registration, until few observations change.
   void AdjustInRounds();
   void DeregisterMisplacedImages();
-  // Deregisters the images whose camera came out implausible.
-  void FilterImages();
+  // Deregisters the frames with an image whose camera came out implausible,
+  // as the incremental mapper does.
+  void FilterFrames();
   // Ends the mapper and releases the correspondences; the observation
   // manager takes over.
   void ReleaseCorrespondences();
@@ -277,7 +285,7 @@ class MergedModelRefiner {
   size_t NumRegisteredAgain() const;
 
   const MergedModelRefinementOptions options_;
-  const IncrementalMapperOptions mapper_options_;
+  const IncrementalPipelineOptions mapper_options_;
   const IncrementalMapper::Options incremental_;
   const IncrementalTriangulator::Options triangulation_;
   const BundleAdjustmentOptions ba_options_;

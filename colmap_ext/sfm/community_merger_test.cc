@@ -5,10 +5,15 @@
 #include "colmap_ext/util/testing.h"
 
 #include "colmap/geometry/pose.h"
+#include "colmap/math/math.h"
+#include "colmap/math/random.h"
 #include "colmap/scene/database_cache.h"
-#include "colmap/util/misc.h"
+#include "colmap/scene/synthetic.h"
 
+#include <algorithm>
+#include <filesystem>
 #include <set>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -76,13 +81,15 @@ TEST_F(JoinReconstructionsTest, RecoversTheScene) {
   EXPECT_EQ(merged.NumRegImages(), scene_.ground_truth.NumRegImages());
   // Every image's pose is the truth's.
   for (const image_t image_id : scene_.ground_truth.RegImageIds()) {
-    ASSERT_TRUE(merged.IsImageRegistered(image_id));
+    ASSERT_TRUE(merged.ExistsImage(image_id));
     const Image& truth = scene_.ground_truth.Image(image_id);
     const Image& image = merged.Image(image_id);
+    ASSERT_TRUE(image.HasPose());
+    EXPECT_EQ(image.FrameId(), truth.FrameId());
     EXPECT_LT((image.ProjectionCenter() - truth.ProjectionCenter()).norm(),
               1e-9);
-    EXPECT_LT(image.CamFromWorld().rotation.angularDistance(
-                  truth.CamFromWorld().rotation),
+    EXPECT_LT(image.CamFromWorld().rotation().angularDistance(
+                  truth.CamFromWorld().rotation()),
               1e-9);
     EXPECT_EQ(image.NumPoints2D(), truth.NumPoints2D());
   }
@@ -176,6 +183,68 @@ TEST_F(JoinReconstructionsTest, RestrictToImagesDropsBorrowedImages) {
   EXPECT_EQ(RestrictToImages(owned2_, model2), model2);
 }
 
+// A rig's snapshot (a frame) whose images two reconstructions own comes
+// whole from the first of them, with the rig's calibration.
+TEST(JoinReconstructions, KeepsAFramesImagesTogether) {
+  SetPRNGSeed(1);
+  SyntheticDatasetOptions options;
+  options.num_rigs = 1;
+  options.num_cameras_per_rig = 2;
+  options.num_frames_per_rig = 4;
+  options.num_points3D = 50;
+  Reconstruction truth;
+  SynthesizeDataset(options, &truth);
+  Reconstruction model1 = truth;
+  Reconstruction model2 = truth;
+  const frame_t split_frame_id = truth.RegFrameIds()[0];
+  std::vector<image_t> split_image_ids;
+  for (const data_t& data_id : truth.Frame(split_frame_id).ImageIds()) {
+    split_image_ids.push_back(data_id.id);
+  }
+  ASSERT_EQ(split_image_ids.size(), 2);
+  // Model 1 owns one image of the frame, model 2 every other image.
+  const std::unordered_set<image_t> owned1 = {split_image_ids[0]};
+  std::unordered_set<image_t> owned2;
+  for (const image_t image_id : truth.RegImageIds()) {
+    if (image_id != split_image_ids[0]) {
+      owned2.insert(image_id);
+    }
+  }
+
+  Reconstruction merged;
+  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
+  JoinReconstructions({&model1, &model2},
+                      {Sim3d(), Sim3d()},
+                      {owned1, owned2},
+                      &merged,
+                      &point3D_ids);
+
+  EXPECT_TRUE(merged.IsValid());
+  EXPECT_EQ(merged.NumRegFrames(), truth.NumRegFrames());
+  EXPECT_EQ(merged.NumRegImages(), truth.NumRegImages());
+  for (const image_t image_id : split_image_ids) {
+    ASSERT_TRUE(merged.Image(image_id).HasPose());
+    EXPECT_EQ(merged.Image(image_id).FrameId(), split_frame_id);
+    EXPECT_LT((merged.Image(image_id).ProjectionCenter() -
+               truth.Image(image_id).ProjectionCenter())
+                  .norm(),
+              1e-9);
+  }
+  const rig_t rig_id = truth.Frame(split_frame_id).RigId();
+  EXPECT_EQ(merged.Rig(rig_id), truth.Rig(rig_id));
+  // The frame's observations are model 1's, the others model 2's.
+  for (size_t r = 0; r < 2; ++r) {
+    EXPECT_FALSE(point3D_ids[r].empty());
+    for (const auto& [old_point3D_id, point3D_id] : point3D_ids[r]) {
+      for (const TrackElement& track_el :
+           merged.Point3D(point3D_id).track.Elements()) {
+        EXPECT_EQ(merged.Image(track_el.image_id).FrameId() == split_frame_id,
+                  r == 0);
+      }
+    }
+  }
+}
+
 // A community's mapper can register an image by what that community sees,
 // far from where the whole model puts it (on South Building, 6 units off by
 // points no other community had). In the merged model it then holds few
@@ -190,14 +259,14 @@ TEST(MergedModelRefiner, RegistersAgainAnImageItHoldsByFewObservations) {
   scene_options.close_loop = false;
   scene_options.keypoint_noise = 0.5;
   scene_options.seed = 12;
-  Database database(JoinPaths(test_dir, "database.db"));
+  const std::shared_ptr<Database> database =
+      Database::Open(std::filesystem::path(test_dir) / "database.db");
   SyntheticScene scene;
-  SynthesizeCommunityScene(scene_options, &scene, &database);
+  SynthesizeCommunityScene(scene_options, &scene, database.get());
+  DatabaseCache::Options cache_options;
+  cache_options.min_num_matches = 15;
   const std::shared_ptr<const DatabaseCache> database_cache =
-      DatabaseCache::Create(database,
-                            /*min_num_matches=*/15,
-                            /*ignore_watermarks=*/false,
-                            /*image_names=*/{});
+      DatabaseCache::Create(*database, cache_options);
 
   auto model = std::make_shared<Reconstruction>(scene.ground_truth);
   std::unordered_map<image_t, int> community_of_image;
@@ -207,19 +276,19 @@ TEST(MergedModelRefiner, RegistersAgainAnImageItHoldsByFewObservations) {
   const ModelEvaluation truth = EvaluateModel(*model, scene.ground_truth);
   // An image of the first cluster, turned by 30 degrees and moved by a
   // quarter of the extent.
-  const image_t misplaced =
-      *std::find_if(model->RegImageIds().begin(),
-                    model->RegImageIds().end(),
-                    [&](const image_t image_id) {
-                      return scene.image_cluster.at(image_id) == 0 &&
-                             image_id != model->RegImageIds()[0] &&
-                             image_id != model->RegImageIds()[1];
-                    });
-  Rigid3d& cam_from_world = model->Image(misplaced).CamFromWorld();
-  cam_from_world = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(
-                               DegToRad(30.0), Eigen::Vector3d::UnitY())),
-                           Eigen::Vector3d(0.25 * truth.extent, 0, 0)) *
-                   cam_from_world;
+  const std::vector<image_t> reg_image_ids = model->RegImageIds();
+  const image_t misplaced = *std::find_if(
+      reg_image_ids.begin(), reg_image_ids.end(), [&](const image_t image_id) {
+        return scene.image_cluster.at(image_id) == 0 &&
+               image_id != reg_image_ids[0] && image_id != reg_image_ids[1];
+      });
+  const Image& misplaced_image = model->Image(misplaced);
+  model->Frame(misplaced_image.FrameId())
+      .SetCamFromWorld(misplaced_image.CameraId(),
+                       Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(
+                                   DegToRad(30.0), Eigen::Vector3d::UnitY())),
+                               Eigen::Vector3d(0.25 * truth.extent, 0, 0)) *
+                           misplaced_image.CamFromWorld());
   ASSERT_GT(EvaluateModel(*model, scene.ground_truth).max_position_error,
             0.1 * truth.extent);
   // Its observations there were of points no other community has: none is
@@ -232,7 +301,7 @@ TEST(MergedModelRefiner, RegistersAgainAnImageItHoldsByFewObservations) {
     }
   }
 
-  IncrementalMapperOptions mapper_options;
+  IncrementalPipelineOptions mapper_options;
   mapper_options.num_threads = 1;
   const MergedModelRefinementSummary summary =
       MergedModelRefiner(MergedModelRefinementOptions(),
@@ -244,121 +313,10 @@ TEST(MergedModelRefiner, RegistersAgainAnImageItHoldsByFewObservations) {
           .Run();
   EXPECT_EQ(summary.num_reregistered_images, 1);
   EXPECT_EQ(summary.num_newly_registered_images, 0);
-  EXPECT_TRUE(model->IsImageRegistered(misplaced));
+  EXPECT_TRUE(model->Image(misplaced).HasPose());
   EXPECT_EQ(model->NumRegImages(), scene.ground_truth.NumRegImages());
   const ModelEvaluation evaluation = EvaluateModel(*model, scene.ground_truth);
   EXPECT_LT(evaluation.max_position_error, 0.01 * truth.extent);
-}
-
-// The refinement leaves pairs out of the merged model's correspondence
-// graph (patches/0002): exactly those, and the others keep all their
-// matches.
-TEST(DatabaseCache, ImagePairFilterLeavesOutExactlyThePairsRefused) {
-  const std::string test_dir = CreateTestFolder();
-  SyntheticSceneOptions options;
-  options.num_clusters = 2;
-  options.num_images_per_cluster = 10;
-  options.num_images_per_link = 6;
-  options.num_points_per_cluster = 600;
-  options.num_points_per_link = 300;
-  options.seed = 5;
-  Database database(JoinPaths(test_dir, "database.db"));
-  SyntheticScene scene;
-  SynthesizeCommunityScene(options, &scene, &database);
-
-  std::vector<image_pair_t> pair_ids;
-  std::vector<TwoViewGeometry> two_view_geometries;
-  database.ReadTwoViewGeometries(&pair_ids, &two_view_geometries);
-  ASSERT_GE(pair_ids.size(), 10);
-  // Refuse every third pair.
-  std::set<image_pair_t> refused;
-  for (size_t i = 0; i < pair_ids.size(); i += 3) {
-    refused.insert(pair_ids[i]);
-  }
-  const auto cache = DatabaseCache::Create(
-      database,
-      /*min_num_matches=*/1,
-      /*ignore_watermarks=*/false,
-      /*image_names=*/{},
-      [&refused](const image_t image_id1, const image_t image_id2) {
-        return refused.count(
-                   Database::ImagePairToPairId(image_id1, image_id2)) == 0;
-      });
-  const auto& graph = *cache->CorrespondenceGraph();
-  for (size_t i = 0; i < pair_ids.size(); ++i) {
-    image_t image_id1;
-    image_t image_id2;
-    std::tie(image_id1, image_id2) = Database::PairIdToImagePair(pair_ids[i]);
-    const size_t expected = refused.count(pair_ids[i]) > 0
-                                ? 0
-                                : two_view_geometries[i].inlier_matches.size();
-    EXPECT_EQ(graph.NumCorrespondencesBetweenImages(image_id1, image_id2),
-              expected)
-        << i;
-  }
-}
-
-// A subset of the images reads only the pairs among them (patches/0002),
-// and gets exactly the correspondences that the whole database's cache has
-// between them, in the same order of the two images.
-TEST(DatabaseCache, ImageSubsetHasTheWholeCachesCorrespondences) {
-  const std::string test_dir = CreateTestFolder();
-  SyntheticSceneOptions options;
-  options.num_clusters = 2;
-  options.num_images_per_cluster = 10;
-  options.num_images_per_link = 6;
-  options.num_points_per_cluster = 600;
-  options.num_points_per_link = 300;
-  options.seed = 6;
-  Database database(JoinPaths(test_dir, "database.db"));
-  SyntheticScene scene;
-  SynthesizeCommunityScene(options, &scene, &database);
-
-  const auto whole = DatabaseCache::Create(database, 15, false, {});
-  std::unordered_set<std::string> subset_names;
-  std::vector<image_t> subset_ids;
-  for (const Image& image : database.ReadAllImages()) {
-    if (image.ImageId() % 2 == 0) {
-      subset_names.insert(image.Name());
-      subset_ids.push_back(image.ImageId());
-    }
-  }
-  const auto subset = DatabaseCache::Create(database, 15, false, subset_names);
-  size_t num_compared = 0;
-  for (const image_t image_id1 : subset_ids) {
-    // An image is left out only where it has no pair inside the subset.
-    if (!subset->ExistsImage(image_id1) && whole->ExistsImage(image_id1)) {
-      for (const image_t image_id2 : subset_ids) {
-        if (image_id2 != image_id1 && whole->ExistsImage(image_id2)) {
-          EXPECT_EQ(whole->CorrespondenceGraph()
-                        ->FindCorrespondencesBetweenImages(image_id1, image_id2)
-                        .size(),
-                    0);
-        }
-      }
-    }
-    for (const image_t image_id2 : subset_ids) {
-      if (image_id1 == image_id2 || !subset->ExistsImage(image_id1) ||
-          !subset->ExistsImage(image_id2)) {
-        continue;
-      }
-      const FeatureMatches expected =
-          whole->CorrespondenceGraph()->FindCorrespondencesBetweenImages(
-              image_id1, image_id2);
-      const FeatureMatches found =
-          subset->CorrespondenceGraph()->FindCorrespondencesBetweenImages(
-              image_id1, image_id2);
-      ASSERT_EQ(found.size(), expected.size());
-      for (size_t i = 0; i < found.size(); ++i) {
-        EXPECT_EQ(found[i].point2D_idx1, expected[i].point2D_idx1);
-        EXPECT_EQ(found[i].point2D_idx2, expected[i].point2D_idx2);
-      }
-      num_compared += found.size();
-    }
-  }
-  EXPECT_GT(num_compared, 1000);
-  // Nothing of the other images.
-  EXPECT_LT(subset->NumImages(), whole->NumImages());
 }
 
 }  // namespace

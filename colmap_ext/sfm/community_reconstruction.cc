@@ -1,34 +1,46 @@
 #include "colmap_ext/sfm/community_reconstruction.h"
 
-#include "colmap_ext/sfm/pose_block_bundle_adjustment.h"
+#include "colmap_ext/scene/filtered_database_cache.h"
 #include "colmap_ext/util/database_retry.h"
 #include "colmap_ext/util/process_memory.h"
 
 #include "colmap/math/random.h"
 #include "colmap/scene/database.h"
+#include "colmap/scene/database_cache.h"
 #include "colmap/scene/reconstruction_manager.h"
 #include "colmap/util/logging.h"
 
 #include <algorithm>
 #include <unordered_map>
+#include <utility>
 
 namespace colmap {
 
 CommunityReconstruction ReconstructCommunityModels(
-    std::shared_ptr<const IncrementalMapperOptions> options,
+    std::shared_ptr<const IncrementalPipelineOptions> options,
     const std::string& image_path,
     const std::string& database_path,
     std::mutex* database_mutex) {
+  THROW_CHECK_NOTNULL(options);
   THROW_CHECK_NOTNULL(database_mutex);
   SetPRNGSeed(kDefaultPRNGSeed);
-  auto reconstruction_manager = std::make_shared<ReconstructionManager>();
-  IncrementalMapperController mapper(
-      options, image_path, database_path, reconstruction_manager);
 
+  // The community's images and the image pairs among them, selected as the
+  // pipeline selects them.
+  DatabaseCache::Options cache_options;
+  cache_options.min_num_matches = static_cast<size_t>(options->min_num_matches);
+  cache_options.ignore_watermarks = options->ignore_watermarks;
+  cache_options.image_names = {options->image_names.begin(),
+                               options->image_names.end()};
+  cache_options.load_all_images = options->load_all_images;
+  cache_options.convert_pose_priors_to_enu = options->use_prior_position;
+  std::shared_ptr<DatabaseCache> database_cache;
   // Another process may hold the database for a moment (database_retry.h).
   if (!RetryDatabaseAccess(database_path, [&]() {
         std::lock_guard<std::mutex> lock(*database_mutex);
-        return mapper.LoadDatabase();
+        database_cache = CreateFilteredDatabaseCache(
+            *Database::Open(database_path), cache_options);
+        return database_cache->NumImages() > 0;
       })) {
     LOG(WARNING) << "No images with matches could be loaded from "
                  << database_path;
@@ -37,24 +49,18 @@ CommunityReconstruction ReconstructCommunityModels(
   // The correspondence graph's construction freed a vector per keypoint.
   ReleaseFreedMemory();
 
-  // As IncrementalMapperController::Run: where no initial pair is found,
-  // relax the constraints. The global adjustments solve COLMAP's problem
-  // with a parameter block per pose (pose_block_bundle_adjustment.h).
-  IncrementalMapper::Options init_options = options->Mapper();
-  init_options.global_bundle_adjuster = AdjustGlobalBundleWithPoseBlocks;
-  mapper.Reconstruct(init_options);
-  constexpr int kNumInitRelaxations = 2;
-  for (int i = 0;
-       i < kNumInitRelaxations && reconstruction_manager->Size() == 0;
-       ++i) {
-    init_options.init_min_num_inliers /= 2;
-    mapper.Reconstruct(init_options);
-    if (reconstruction_manager->Size() > 0) {
-      break;
-    }
-    init_options.init_min_tri_angle /= 2;
-    mapper.Reconstruct(init_options);
-  }
+  // COLMAP's incremental pipeline as `colmap mapper` runs it, with its
+  // relaxations of the initialization where images remain unregistered. It
+  // keeps a copy of the cache of the images it is asked for (the same
+  // ones), and this one is released once it is made.
+  auto pipeline_options =
+      std::make_shared<IncrementalPipelineOptions>(*options);
+  pipeline_options->image_path = image_path;
+  auto reconstruction_manager = std::make_shared<ReconstructionManager>();
+  IncrementalPipeline pipeline(
+      pipeline_options, std::move(database_cache), reconstruction_manager);
+  ReleaseFreedMemory();
+  pipeline.Run();
 
   CommunityReconstruction result;
   result.num_models = static_cast<int>(reconstruction_manager->Size());
@@ -82,7 +88,7 @@ double OwnCameraFraction(const std::string& database_path,
   std::vector<Image> images;
   RetryDatabaseAccessOrThrow(database_path, [&]() {
     std::lock_guard<std::mutex> lock(*database_mutex);
-    images = Database(database_path).ReadAllImages();
+    images = Database::Open(database_path)->ReadAllImages();
   });
   std::unordered_map<camera_t, int> num_images_of_camera;
   for (const Image& image : images) {

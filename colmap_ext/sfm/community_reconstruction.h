@@ -1,10 +1,13 @@
 // One community reconstructed by COLMAP's incremental mapper.
 //
 // CSfM (Cui et al., ICIP 2017), section 2.2: each community is reconstructed
-// on its own by incremental SfM. This is COLMAP's
-// IncrementalMapperController on the community's images (its own and those
-// it borrows from its neighbours), with two differences that let several
-// communities, in threads or in processes, share one database:
+// on its own by incremental SfM. This is COLMAP's IncrementalPipeline on the
+// community's images (its own and those it borrows from its neighbours),
+// with three differences that let several communities, in threads or in
+// processes, share one database:
+//   - the community's images are loaded with CreateFilteredDatabaseCache
+//     (filtered_database_cache.h), which reads the two-view geometries of
+//     the community's image pairs only, not the whole database's;
 //   - the database is loaded under `database_mutex` (shared by the threads
 //     of one process; COLMAP's Database sets no SQLite busy timeout, so two
 //     connections opening it together fail with "database is locked"), and
@@ -20,7 +23,7 @@
 
 #pragma once
 
-#include "colmap/controllers/incremental_mapper.h"
+#include "colmap/controllers/incremental_pipeline.h"
 #include "colmap/scene/reconstruction.h"
 
 #include <memory>
@@ -42,7 +45,7 @@ struct CommunityReconstruction {
 
 // `options.image_names` holds the community's images.
 CommunityReconstruction ReconstructCommunityModels(
-    std::shared_ptr<const IncrementalMapperOptions> options,
+    std::shared_ptr<const IncrementalPipelineOptions> options,
     const std::string& image_path,
     const std::string& database_path,
     std::mutex* database_mutex);

@@ -5,8 +5,9 @@
 
 #include "colmap/math/random.h"
 #include "colmap/scene/database.h"
-#include "colmap/util/misc.h"
 
+#include <algorithm>
+#include <filesystem>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -25,23 +26,30 @@ class ReconstructCommunityTest : public ::testing::Test {
     options.num_points_per_link = 300;
     options.close_loop = false;
     options.seed = 5;
-    database_path_ = JoinPaths(CreateTestFolder(), "database.db");
-    Database database(database_path_);
-    SynthesizeCommunityScene(options, &scene_, &database);
-    auto mapper_options = std::make_shared<IncrementalMapperOptions>();
+    database_path_ =
+        (std::filesystem::path(CreateTestFolder()) / "database.db").string();
+    SynthesizeCommunityScene(
+        options, &scene_, Database::Open(database_path_).get());
+    auto mapper_options = std::make_shared<IncrementalPipelineOptions>();
     mapper_options->num_threads = 1;
-    for (const auto& image_and_cluster : scene_.image_cluster) {
-      if (image_and_cluster.second == 0) {
-        mapper_options->image_names.insert(
-            scene_.ground_truth.Image(image_and_cluster.first).Name());
+    for (const auto& [image_id, cluster] : scene_.image_cluster) {
+      if (cluster == 0) {
+        mapper_options->image_names.push_back(
+            scene_.ground_truth.Image(image_id).Name());
       }
     }
     options_ = mapper_options;
   }
 
+  bool IsCommunityImage(const std::string& name) const {
+    return std::find(options_->image_names.begin(),
+                     options_->image_names.end(),
+                     name) != options_->image_names.end();
+  }
+
   SyntheticScene scene_;
   std::string database_path_;
-  std::shared_ptr<const IncrementalMapperOptions> options_;
+  std::shared_ptr<const IncrementalPipelineOptions> options_;
 };
 
 TEST_F(ReconstructCommunityTest, ReconstructsOnlyTheCommunitysImages) {
@@ -53,8 +61,7 @@ TEST_F(ReconstructCommunityTest, ReconstructsOnlyTheCommunitysImages) {
   EXPECT_EQ(result.other_models.size() + 1, result.num_models);
   EXPECT_EQ(result.model->NumRegImages(), options_->image_names.size());
   for (const image_t image_id : result.model->RegImageIds()) {
-    EXPECT_EQ(options_->image_names.count(result.model->Image(image_id).Name()),
-              1);
+    EXPECT_TRUE(IsCommunityImage(result.model->Image(image_id).Name()));
   }
 }
 
@@ -86,16 +93,14 @@ TEST_F(ReconstructCommunityTest, SameModelInAnyThread) {
 // Two landmarks without the walkway that joins them: the mapper makes a
 // model of each, and both are returned, the largest as the community's.
 TEST_F(ReconstructCommunityTest, OtherModelsAreKeptLargestFirst) {
-  auto options = std::make_shared<IncrementalMapperOptions>(*options_);
+  auto options = std::make_shared<IncrementalPipelineOptions>(*options_);
   options->image_names.clear();
   int num_dropped = 0;
-  for (const auto& image_and_cluster : scene_.image_cluster) {
-    const std::string& name =
-        scene_.ground_truth.Image(image_and_cluster.first).Name();
+  for (const auto& [image_id, cluster] : scene_.image_cluster) {
+    const std::string& name = scene_.ground_truth.Image(image_id).Name();
     // Cluster 1 without three of its images: the smaller model.
-    if (image_and_cluster.second == 0 ||
-        (image_and_cluster.second == 1 && ++num_dropped > 3)) {
-      options->image_names.insert(name);
+    if (cluster == 0 || (cluster == 1 && ++num_dropped > 3)) {
+      options->image_names.push_back(name);
     }
   }
   std::mutex database_mutex;
@@ -112,7 +117,7 @@ TEST_F(ReconstructCommunityTest, OtherModelsAreKeptLargestFirst) {
 }
 
 TEST_F(ReconstructCommunityTest, NoImagesWithMatchesGivesNoModel) {
-  auto options = std::make_shared<IncrementalMapperOptions>(*options_);
+  auto options = std::make_shared<IncrementalPipelineOptions>(*options_);
   options->image_names = {"no-such-image.jpg"};
   std::mutex database_mutex;
   const CommunityReconstruction result =
@@ -123,20 +128,21 @@ TEST_F(ReconstructCommunityTest, NoImagesWithMatchesGivesNoModel) {
 
 TEST(OwnCameraFraction, CountsTheImagesWhoseCameraNoOtherImageUses) {
   const std::string database_path =
-      JoinPaths(CreateTestFolder(), "database.db");
+      (std::filesystem::path(CreateTestFolder()) / "database.db").string();
   std::unordered_set<std::string> image_names;
   {
-    Database database(database_path);
-    const camera_t shared_camera_id = database.WriteCamera(
-        Camera::CreateFromModelId(1, SimplePinholeCameraModel::model_id, 1, 1, 1));
+    const std::shared_ptr<Database> database = Database::Open(database_path);
+    const camera_t shared_camera_id =
+        database->WriteCamera(Camera::CreateFromModelId(
+            1, SimplePinholeCameraModel::model_id, 1, 1, 1));
     for (int i = 0; i < 4; ++i) {
       Image image;
       image.SetName("image" + std::to_string(i));
       image.SetCameraId(
           i < 3 ? shared_camera_id
-                : database.WriteCamera(Camera::CreateFromModelId(
+                : database->WriteCamera(Camera::CreateFromModelId(
                       1, SimplePinholeCameraModel::model_id, 1, 1, 1)));
-      database.WriteImage(image);
+      database->WriteImage(image);
       image_names.insert(image.Name());
     }
   }

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 namespace colmap {
 namespace {
@@ -45,11 +46,11 @@ std::vector<ImageView> ImageViews(const Reconstruction& reconstruction,
     ImageView view;
     view.image_id = image_id;
     view.camera = &reconstruction.Camera(image.CameraId());
-    const Rigid3d& cam_from_model = image.CamFromWorld();
+    const Rigid3d cam_from_model = image.CamFromWorld();
     view.cam_from_common =
-        Sim3d(1, cam_from_model.rotation, cam_from_model.translation) *
+        Sim3d(1, cam_from_model.rotation(), cam_from_model.translation()) *
         model_from_common;
-    view.center = Inverse(view.cam_from_common).translation;
+    view.center = Inverse(view.cam_from_common).translation();
     std::vector<point3D_t> point3D_ids;
     view.min_depth.assign(kGridSize * kGridSize, 0.0);
     for (const Point2D& point2D : image.Points2D()) {
@@ -93,13 +94,13 @@ int NumVisiblePoints(const ImageView& view,
     if (point_in_cam.z() <= 0) {
       continue;
     }
-    const Eigen::Vector2d xy =
-        view.camera->ImgFromCam(point_in_cam.hnormalized());
-    if (xy.x() < 0 || xy.y() < 0 || xy.x() >= view.camera->width ||
-        xy.y() >= view.camera->height) {
+    const std::optional<Eigen::Vector2d> xy =
+        view.camera->ImgFromCam(point_in_cam);
+    if (!xy || xy->x() < 0 || xy->y() < 0 || xy->x() >= view.camera->width ||
+        xy->y() >= view.camera->height) {
       continue;
     }
-    const double surface_depth = view.min_depth[view.Cell(xy)];
+    const double surface_depth = view.min_depth[view.Cell(*xy)];
     if (surface_depth == 0 ||
         point_in_cam.z() > kMaxDepthRatio * surface_depth) {
       continue;
@@ -303,13 +304,13 @@ CovisibilityCheck CheckCovisibility(
   PairCounts cross;
   for (const ImageView& view1 : views1) {
     if (reconstruction2.ExistsImage(view1.image_id) &&
-        reconstruction2.IsImageRegistered(view1.image_id)) {
+        reconstruction2.Image(view1.image_id).HasPose()) {
       continue;
     }
     for (const ImageView& view2 : views2) {
       if ((view1.center - view2.center).norm() > max_distance ||
           (reconstruction1.ExistsImage(view2.image_id) &&
-           reconstruction1.IsImageRegistered(view2.image_id))) {
+           reconstruction1.Image(view2.image_id).HasPose())) {
         continue;
       }
       cross.Add(view1, view2, is_verified_pair, is_compared_pair, options);

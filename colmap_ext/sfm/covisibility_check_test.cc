@@ -3,8 +3,10 @@
 #include "colmap_ext/scene/synthetic_scene.h"
 
 #include "colmap/math/math.h"
-#include "colmap/scene/database.h"
+#include "colmap/util/types.h"
 
+#include <map>
+#include <optional>
 #include <unordered_set>
 
 #include <gtest/gtest.h>
@@ -35,8 +37,8 @@ class CheckCovisibilityTest : public ::testing::Test {
       const auto& elements = point3D.second.track.Elements();
       for (size_t i = 0; i < elements.size(); ++i) {
         for (size_t j = 0; j < i; ++j) {
-          ++num_shared[Database::ImagePairToPairId(elements[i].image_id,
-                                                   elements[j].image_id)];
+          ++num_shared[ImagePairToPairId(elements[i].image_id,
+                                         elements[j].image_id)];
         }
       }
     }
@@ -50,19 +52,18 @@ class CheckCovisibilityTest : public ::testing::Test {
     model1_ = truth;
     model2_ = truth;
     for (const image_t image_id : truth.RegImageIds()) {
+      const Image& image = truth.Image(image_id);
       const int cluster = scene_.image_cluster.at(image_id);
       const bool first =
-          cluster == 0 ||
-          (cluster < 0 && truth.Image(image_id).ProjectionCenter().x() < 0);
-      (first ? model2_ : model1_).DeRegisterImage(image_id);
+          cluster == 0 || (cluster < 0 && image.ProjectionCenter().x() < 0);
+      (first ? model2_ : model1_).DeRegisterFrame(image.FrameId());
     }
     model1_.Transform(Inverse(world_from_model1_));
     model2_.Transform(Inverse(world_from_model2_));
   }
 
   bool IsVerified(const image_t image_id1, const image_t image_id2) const {
-    return verified_pairs_.count(
-               Database::ImagePairToPairId(image_id1, image_id2)) > 0;
+    return verified_pairs_.count(ImagePairToPairId(image_id1, image_id2)) > 0;
   }
 
   // `is_compared`: the pairs the matcher compared (all, if empty).
@@ -82,8 +83,8 @@ class CheckCovisibilityTest : public ::testing::Test {
   // matcher that compared each community's images among themselves).
   bool InOneModel(const image_t image_id1, const image_t image_id2) const {
     for (const Reconstruction* model : {&model1_, &model2_}) {
-      if (model->IsImageRegistered(image_id1) &&
-          model->IsImageRegistered(image_id2)) {
+      if (model->Image(image_id1).HasPose() &&
+          model->Image(image_id2).HasPose()) {
         return true;
       }
     }
@@ -120,7 +121,7 @@ TEST_F(CheckCovisibilityTest, StackedLandmarksContradictTheMatches) {
   // The transform that puts the second landmark onto the first, as matches
   // between two identical towers would suggest.
   Sim3d stacked;
-  stacked.translation = landmark_offset_;
+  stacked.translation() = landmark_offset_;
   const CovisibilityCheck check =
       Check(Inverse(world_from_model2_) * stacked * world_from_model1_);
   EXPECT_FALSE(check.consistent);
@@ -145,7 +146,7 @@ TEST_F(CheckCovisibilityTest, PairsNeverComparedSayNothing) {
     return InOneModel(a, b) || IsVerified(a, b);
   };
   Sim3d stacked;
-  stacked.translation = landmark_offset_;
+  stacked.translation() = landmark_offset_;
   const CovisibilityCheck check = Check(
       Inverse(world_from_model2_) * stacked * world_from_model1_, compared);
   EXPECT_TRUE(check.consistent);
@@ -164,7 +165,7 @@ TEST_F(CheckCovisibilityTest, PairsNeverComparedSayNothing) {
 
 TEST_F(CheckCovisibilityTest, ModelsFarApartSayNothing) {
   Sim3d far_apart;
-  far_apart.translation = Eigen::Vector3d(0, 1000, 0);
+  far_apart.translation() = Eigen::Vector3d(0, 1000, 0);
   const CovisibilityCheck check =
       Check(Inverse(world_from_model2_) * far_apart * world_from_model1_);
   EXPECT_TRUE(check.consistent);
@@ -180,7 +181,7 @@ TEST_F(CheckCovisibilityTest, ModelsFarApartSayNothing) {
 Reconstruction WallSeenFrom(const double tilt_deg,
                             const image_t first_image_id) {
   Reconstruction model;
-  model.AddCamera(
+  model.AddCameraWithTrivialRig(
       Camera::CreateFromModelName(1, "SIMPLE_PINHOLE", 2000, 2000, 2000));
   std::vector<Eigen::Vector3d> wall;
   for (double x = -4; x <= 4; x += 0.5) {
@@ -199,21 +200,23 @@ Reconstruction WallSeenFrom(const double tilt_deg,
     image.SetImageId(first_image_id + k);
     image.SetCameraId(1);
     image.SetName(std::to_string(first_image_id + k));
-    image.CamFromWorld() = LookAt(center, Eigen::Vector3d(0, 0, z), 0);
+    const Rigid3d cam_from_world = LookAt(center, Eigen::Vector3d(0, 0, z), 0);
     std::vector<Eigen::Vector2d> points2D;
     for (size_t i = 0; i < wall.size(); ++i) {
-      const Eigen::Vector3d in_cam = image.CamFromWorld() * wall[i];
-      const Eigen::Vector2d xy =
-          model.Camera(1).ImgFromCam(in_cam.hnormalized());
-      if (in_cam.z() > 0 && xy.x() >= 0 && xy.y() >= 0 && xy.x() < 2000 &&
-          xy.y() < 2000) {
+      const Eigen::Vector3d in_cam = cam_from_world * wall[i];
+      if (in_cam.z() <= 0) {
+        continue;
+      }
+      const std::optional<Eigen::Vector2d> xy =
+          model.Camera(1).ImgFromCam(in_cam);
+      if (xy && xy->x() >= 0 && xy->y() >= 0 && xy->x() < 2000 &&
+          xy->y() < 2000) {
         tracks[i].AddElement(image.ImageId(), points2D.size());
-        points2D.push_back(xy);
+        points2D.push_back(*xy);
       }
     }
     image.SetPoints2D(points2D);
-    model.AddImage(image);
-    model.RegisterImage(image.ImageId());
+    model.AddImageWithTrivialFrame(std::move(image), cam_from_world);
   }
   for (size_t i = 0; i < wall.size(); ++i) {
     if (tracks[i].Length() >= 2) {

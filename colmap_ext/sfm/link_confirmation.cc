@@ -3,7 +3,7 @@
 #include "colmap_ext/util/union_find.h"
 
 #include "colmap/util/logging.h"
-#include "colmap/util/misc.h"
+#include "colmap/util/string.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,8 @@
 #include "colmap_ext/sfm/link_confirmation.h"
 
-#include "colmap/util/misc.h"
+#include "colmap/math/math.h"
 
+#include <cmath>
 #include <random>
 
 #include <gtest/gtest.h>

@@ -1,9 +1,8 @@
 #include "colmap_ext/sfm/pairwise_similarity.h"
 #include "colmap_ext/util/option_check.h"
 
-#include "colmap/estimators/similarity_transform.h"
+#include "colmap/estimators/solvers/similarity_transform.h"
 #include "colmap/math/math.h"
-#include "colmap/optim/loransac.h"
 #include "colmap/util/logging.h"
 
 #include <algorithm>
@@ -39,9 +38,9 @@ PointCorrespondences FindPointCorrespondences(
   std::set<std::pair<point3D_t, point3D_t>> point3D_pairs;
   for (const CrossPairMatches& cross_pair : cross_pairs) {
     if (!reconstruction1.ExistsImage(cross_pair.image_id1) ||
-        !reconstruction1.IsImageRegistered(cross_pair.image_id1) ||
+        !reconstruction1.Image(cross_pair.image_id1).HasPose() ||
         !reconstruction2.ExistsImage(cross_pair.image_id2) ||
-        !reconstruction2.IsImageRegistered(cross_pair.image_id2)) {
+        !reconstruction2.Image(cross_pair.image_id2).HasPose()) {
       continue;
     }
     const Image& image1 = reconstruction1.Image(cross_pair.image_id1);
@@ -110,17 +109,17 @@ PairwiseSimilarity EstimatePairwiseSimilarity(
   ransac_options.max_error = options.max_relative_error * spread;
   ransac_options.min_inlier_ratio = options.min_inlier_ratio;
   ransac_options.max_num_trials = 10000;
-  LORANSAC<SimilarityTransformEstimator<3, true>,
-           SimilarityTransformEstimator<3, true>>
-      ransac(ransac_options);
-  const auto report =
-      ransac.Estimate(correspondences.points1, correspondences.points2);
+  Sim3d second_from_first;
+  const auto report = EstimateSim3dRobust(correspondences.points1,
+                                          correspondences.points2,
+                                          ransac_options,
+                                          second_from_first);
   if (!report.success) {
     return result;
   }
 
   result.num_inliers = static_cast<int>(report.support.num_inliers);
-  result.second_from_first = Sim3d::FromMatrix(report.model);
+  result.second_from_first = second_from_first;
   for (size_t i = 0; i < correspondences.Size(); ++i) {
     if (report.inlier_mask[i]) {
       result.inlier_points1.push_back(correspondences.points1[i]);
@@ -183,18 +182,20 @@ SharedImageAgreement CheckSharedImages(
   SharedImageAgreement agreement;
   for (const image_t image_id : reconstruction1.RegImageIds()) {
     if (!reconstruction2.ExistsImage(image_id) ||
-        !reconstruction2.IsImageRegistered(image_id)) {
+        !reconstruction2.Image(image_id).HasPose()) {
       continue;
     }
     const Image& image1 = reconstruction1.Image(image_id);
     const Image& image2 = reconstruction2.Image(image_id);
-    // The pose in the second frame that the transform predicts.
+    // The pose in the second model that the transform predicts.
+    const Rigid3d cam_from_world1 = image1.CamFromWorld();
+    const Rigid3d cam_from_world2 = image2.CamFromWorld();
     const Eigen::Quaterniond predicted_rotation =
-        image1.CamFromWorld().rotation * second_from_first.rotation.inverse();
+        cam_from_world1.rotation() * second_from_first.rotation().inverse();
     const Eigen::Vector3d predicted_center =
         second_from_first * image1.ProjectionCenter();
     const double rotation_deg = RadToDeg(
-        predicted_rotation.angularDistance(image2.CamFromWorld().rotation));
+        predicted_rotation.angularDistance(cam_from_world2.rotation()));
     const double relative_distance =
         (predicted_center - image2.ProjectionCenter()).norm() / spread;
     ++agreement.num_shared_images;

@@ -106,14 +106,16 @@ TEST_F(PairwiseSimilarityTest, MatchesGroundTruth) {
   EXPECT_GT(similarity.num_inliers, 0.6 * correspondences.Size());
 
   const Sim3d truth = community2_from_world_ * Inverse(community1_from_world_);
-  EXPECT_NEAR(similarity.second_from_first.scale / truth.scale, 1.0, 0.005);
-  EXPECT_LT(RadToDeg(similarity.second_from_first.rotation.angularDistance(
-                truth.rotation)),
+  EXPECT_NEAR(
+      similarity.second_from_first.scale() / truth.scale(), 1.0, 0.005);
+  EXPECT_LT(RadToDeg(similarity.second_from_first.rotation().angularDistance(
+                truth.rotation())),
             0.2);
   // Translation error relative to the scene in community 2's frame (~150 m
   // times 2.5).
   EXPECT_LT(
-      (similarity.second_from_first.translation - truth.translation).norm(),
+      (similarity.second_from_first.translation() - truth.translation())
+          .norm(),
       0.5);
 }
 
@@ -170,11 +172,14 @@ TEST_F(PairwiseSimilarityTest, SharedImagesConfirmOnlyTheRightTransform) {
 
   // Model 1 turned one borrowed image by 30 degrees about its centre: the
   // right transform places the other two alike.
-  Rigid3d& cam_from_world = model1.Image(*borrowed.begin()).CamFromWorld();
+  const Image& turned = model1.Image(*borrowed.begin());
+  const Rigid3d cam_from_world = turned.CamFromWorld();
   const Eigen::Quaterniond turn(
       Eigen::AngleAxisd(DegToRad(30.0), Eigen::Vector3d::UnitZ()));
-  cam_from_world = Rigid3d(turn * cam_from_world.rotation,
-                           turn * cam_from_world.translation);
+  model1.Frame(turned.FrameId())
+      .SetCamFromWorld(turned.CameraId(),
+                       Rigid3d(turn * cam_from_world.rotation(),
+                               turn * cam_from_world.translation()));
   agreement = CheckSharedImages(model1, model2, truth, spread, options);
   EXPECT_EQ(agreement.num_shared_images, 3);
   EXPECT_EQ(agreement.num_agreeing, 2);

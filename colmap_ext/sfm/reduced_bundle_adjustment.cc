@@ -1,15 +1,15 @@
 #include "colmap_ext/sfm/reduced_bundle_adjustment.h"
 
-#include "colmap_ext/sfm/pose_block_bundle_adjustment.h"
-
 #include "colmap/util/logging.h"
-#include "colmap/util/misc.h"
+#include "colmap/util/string.h"
 #include "colmap/util/timer.h"
 
 #include <algorithm>
 #include <limits>
+#include <memory>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace colmap {
@@ -37,6 +37,43 @@ TrackRank RankOf(const TrackSelectionOptions& options,
                options.long_track_length),
       point3D.error < 0 ? std::numeric_limits<double>::max() : point3D.error,
       point3D_id};
+}
+
+// The configuration of COLMAP's mapper's global adjustment: every image of
+// the registered frames, the gauge held by two frames.
+BundleAdjustmentConfig MappersConfig(const Reconstruction& reconstruction) {
+  BundleAdjustmentConfig config;
+  for (const frame_t frame_id : reconstruction.RegFrameIds()) {
+    for (const data_t& data_id : reconstruction.Frame(frame_id).ImageIds()) {
+      config.AddImage(data_id.id);
+    }
+  }
+  config.FixGauge(BundleAdjustmentGauge::TWO_CAMS_FROM_WORLD);
+  return config;
+}
+
+// Solves the bundle adjustment of `config` with COLMAP's Ceres adjuster and
+// `solver_options` as they are: neither the linear solver nor the number of
+// threads is chosen by the size of the problem.
+ceres::Solver::Summary SolveOnCeres(const BundleAdjustmentOptions& ba_options,
+                                    ceres::Solver::Options solver_options,
+                                    const BundleAdjustmentConfig& config,
+                                    Reconstruction* reconstruction) {
+  BundleAdjustmentOptions options = ba_options;
+  options.backend = BundleAdjustmentBackend::CERES;
+  THROW_CHECK_NOTNULL(options.ceres);
+  options.ceres->solver_options = std::move(solver_options);
+  options.ceres->auto_select_solver_type = false;
+  options.ceres->min_num_residuals_for_cpu_multi_threading = 0;
+  const std::shared_ptr<BundleAdjustmentSummary> summary =
+      CreateDefaultBundleAdjuster(options, config, *reconstruction)->Solve();
+  if (const auto ceres_summary =
+          std::dynamic_pointer_cast<CeresBundleAdjustmentSummary>(summary)) {
+    return ceres_summary->ceres_summary;
+  }
+  ceres::Solver::Summary no_solve;
+  no_solve.message = "no observations";
+  return no_solve;
 }
 
 }  // namespace
@@ -147,10 +184,10 @@ ceres::Solver::Summary AdjustAllObservations(
     summary.message = "fewer than two registered images";
     return summary;
   }
-  PoseBlockBundleAdjuster bundle_adjuster(ba_options,
-                                          MappersGauge(*reconstruction));
-  bundle_adjuster.SetUpProblem(reconstruction);
-  return bundle_adjuster.Solve(std::move(solver_options), reconstruction);
+  return SolveOnCeres(ba_options,
+                      std::move(solver_options),
+                      MappersConfig(*reconstruction),
+                      reconstruction);
 }
 
 bool AdjustCamerasOnTracks(const BundleAdjustmentOptions& ba_options,
@@ -163,11 +200,14 @@ bool AdjustCamerasOnTracks(const BundleAdjustmentOptions& ba_options,
   }
   Timer timer;
   timer.Start();
-  PoseBlockBundleAdjuster bundle_adjuster(ba_options,
-                                          MappersGauge(*reconstruction));
-  bundle_adjuster.SetUpProblem(reconstruction, &point3D_ids);
+  BundleAdjustmentConfig config = MappersConfig(*reconstruction);
+  for (const auto& [point3D_id, _] : reconstruction->Points3D()) {
+    if (point3D_ids.count(point3D_id) == 0) {
+      config.IgnorePoint(point3D_id);
+    }
+  }
   const ceres::Solver::Summary summary =
-      bundle_adjuster.Solve(solver_options, reconstruction);
+      SolveOnCeres(ba_options, solver_options, config, reconstruction);
   std::unordered_set<image_t> image_ids;
   for (const point3D_t point3D_id : point3D_ids) {
     for (const TrackElement& track_el :
@@ -194,11 +234,13 @@ size_t RefinePointsWithFixedCameras(
   THROW_CHECK_NOTNULL(reconstruction);
   THROW_CHECK_GT(max_points_per_problem, 0);
   BundleAdjustmentOptions options = ba_options;
-  options.loss_function_type =
-      BundleAdjustmentOptions::LossFunctionType::TRIVIAL;
   options.print_summary = false;
-  options.solver_options.max_num_iterations =
-      std::min(options.solver_options.max_num_iterations, 10);
+  if (options.ceres) {
+    options.ceres->loss_function_type =
+        CeresBundleAdjustmentOptions::LossFunctionType::TRIVIAL;
+    options.ceres->solver_options.max_num_iterations =
+        std::min(options.ceres->solver_options.max_num_iterations, 10);
+  }
 
   std::vector<point3D_t> point3D_ids;
   point3D_ids.reserve(reconstruction->NumPoints3D());
@@ -221,14 +263,13 @@ size_t RefinePointsWithFixedCameras(
     }
     // Without images in the configuration, the adjuster holds every camera
     // (pose and intrinsics) constant and adjusts the points alone.
-    BundleAdjuster bundle_adjuster(options, config);
-    bundle_adjuster.Solve(reconstruction);
+    CreateDefaultBundleAdjuster(options, config, *reconstruction)->Solve();
     // A point of nearly parallel rays can run off along them, even behind
     // its cameras: it keeps its place (filtering judges it).
     for (size_t k = begin; k < end; ++k) {
       Point3D& point3D = reconstruction->Point3D(point3D_ids[k]);
       for (const TrackElement& track_el : point3D.track.Elements()) {
-        const Rigid3d& cam_from_world =
+        const Rigid3d cam_from_world =
             reconstruction->Image(track_el.image_id).CamFromWorld();
         if ((cam_from_world * point3D.xyz).z() <
             std::numeric_limits<double>::epsilon()) {

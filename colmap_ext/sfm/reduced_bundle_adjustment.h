@@ -26,12 +26,13 @@
 // observations (the noise averages over fewer of them): the merge ends
 // with one such adjustment (community_merger.h).
 //
-// Both adjustments solve COLMAP's objective with each pose as one parameter
-// block (pose_block_bundle_adjustment.h).
+// Both are COLMAP's bundle adjustment (CreateDefaultBundleAdjuster), the
+// first with the tracks outside the subset ignored.
 
 #pragma once
 
 #include "colmap/estimators/bundle_adjustment.h"
+#include "colmap/estimators/bundle_adjustment_ceres.h"
 #include "colmap/scene/reconstruction.h"
 
 #include <string>
@@ -74,36 +75,36 @@ std::string SolverSummaryToString(const ceres::Solver::Options& options,
                                   const ceres::Solver::Summary& summary,
                                   double seconds);
 
-// Adjusts the poses of all registered images, the intrinsics of their
-// cameras (as `ba_options` says which to refine) and the given points, on
-// the observations of the given points only; the points outside
-// `point3D_ids` are left as they are. The gauge is fixed as COLMAP's mapper
-// fixes it (the first registered image's pose, one coordinate of the
-// second's position). `solver_options` are Ceres' (e.g. from
-// `ba_options.solver_options`, with a linear solver chosen for the size;
-// num_threads -1 takes all cores).
-// Returns whether the solution is usable.
+// Adjusts the poses of all registered frames, the intrinsics of their
+// cameras and their rigs (as `ba_options` says which to refine) and the
+// given points, on the observations of the given points only; the points
+// outside `point3D_ids` are left as they are. The gauge is fixed as COLMAP's
+// mapper fixes it (BundleAdjustmentGauge::TWO_CAMS_FROM_WORLD: one frame's
+// pose, and the coordinate of a second frame's position along which the two
+// are furthest apart). The adjustment runs on Ceres with `solver_options` as
+// they are (e.g. `ba_options.ceres->solver_options` with a linear solver
+// chosen for the size; num_threads -1 takes all cores, whatever the size of
+// the problem). Returns whether the solution is usable.
 bool AdjustCamerasOnTracks(const BundleAdjustmentOptions& ba_options,
                            ceres::Solver::Options solver_options,
                            const std::unordered_set<point3D_t>& point3D_ids,
                            Reconstruction* reconstruction);
 
 // COLMAP's global bundle adjustment, the counterpart of the above over all
-// observations: all registered images, the intrinsics of their cameras (as
-// `ba_options` says which to refine) and all points, with `ba_options`'
-// loss (`refine_extrinsics` false holds every pose), the gauge fixed as
-// COLMAP's mapper fixes it (the first registered image's pose, one
-// coordinate of the second's position), solved with `solver_options`
-// (num_threads -1 takes all cores). Returns Ceres' summary
-// (with fewer than two registered images or no observation, one that is not
-// usable, after no iteration).
+// observations: all registered frames, the intrinsics of their cameras and
+// their rigs (as `ba_options` says which to refine) and all points, with
+// `ba_options`' loss (`refine_rig_from_world` false holds every pose), the
+// gauge fixed as above, solved on Ceres with `solver_options` as they are
+// (num_threads -1 takes all cores). Returns Ceres' summary (with fewer than
+// two registered images or no observation, one that is not usable, after no
+// iteration).
 ceres::Solver::Summary AdjustAllObservations(
     const BundleAdjustmentOptions& ba_options,
     ceres::Solver::Options solver_options,
     Reconstruction* reconstruction);
 
 // Refines every point of `reconstruction` outside `excluded_point3D_ids`
-// with all cameras fixed (least squares), in problems of at most
+// with all cameras and poses fixed (least squares), in problems of at most
 // `max_points_per_problem` points. A point that the refinement would put
 // behind one of its cameras (nearly parallel rays) keeps its place. Returns
 // the number of points refined.

@@ -6,8 +6,10 @@
 #include "colmap/math/random.h"
 #include "colmap/scene/synthetic.h"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -37,12 +39,15 @@ Reconstruction GroundTruth() {
 Reconstruction WellConditionedGroundTruth() {
   SetPRNGSeed(3);
   SyntheticDatasetOptions options;
-  options.num_cameras = 1;
-  options.num_images = 15;
+  options.num_rigs = 1;
+  options.num_cameras_per_rig = 1;
+  options.num_frames_per_rig = 15;
   options.num_points3D = 2000;
-  options.point2D_stddev = 0.5;
   Reconstruction ground_truth;
   SynthesizeDataset(options, &ground_truth);
+  SyntheticNoiseOptions noise_options;
+  noise_options.point2D_stddev = 0.5;
+  SynthesizeNoise(noise_options, &ground_truth);
   ground_truth.UpdatePoint3DErrors();
   return ground_truth;
 }
@@ -63,8 +68,8 @@ Reconstruction Perturbed(const Reconstruction& ground_truth) {
 BundleAdjustmentOptions AdjustmentOptions() {
   BundleAdjustmentOptions options;
   options.print_summary = false;
-  options.solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
-  options.solver_options.function_tolerance = 1e-8;
+  options.ceres->solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
+  options.ceres->solver_options.function_tolerance = 1e-8;
   return options;
 }
 
@@ -158,7 +163,7 @@ TEST(AdjustCamerasOnTracks, CamerasAsAccurateAsTheFullAdjustment) {
   const double perturbed_error =
       EvaluateModel(full, ground_truth).median_position_error;
   ASSERT_TRUE(
-      AdjustAllObservations(ba_options, ba_options.solver_options, &full)
+      AdjustAllObservations(ba_options, ba_options.ceres->solver_options, &full)
           .IsSolutionUsable());
   const ModelEvaluation full_evaluation = EvaluateModel(full, ground_truth);
 
@@ -168,7 +173,7 @@ TEST(AdjustCamerasOnTracks, CamerasAsAccurateAsTheFullAdjustment) {
       SelectBundleTracks(selection, reduced);
   ASSERT_LT(selected.size(), reduced.NumPoints3D() / 2);
   ASSERT_TRUE(AdjustCamerasOnTracks(
-      ba_options, ba_options.solver_options, selected, &reduced));
+      ba_options, ba_options.ceres->solver_options, selected, &reduced));
   EXPECT_EQ(RefinePointsWithFixedCameras(ba_options,
                                          selected,
                                          /*max_points_per_problem=*/500,
@@ -205,13 +210,23 @@ TEST(AdjustAllObservations, UndoesAPerturbationWithTheMappersGauge) {
   Reconstruction model = Perturbed(ground_truth);
   const double perturbed_error =
       EvaluateModel(model, ground_truth).median_position_error;
-  const image_t first = model.RegImageIds()[0];
-  const image_t second = model.RegImageIds()[1];
+  // COLMAP's mapper's gauge: the pose of the image of smallest id, and the
+  // coordinate of the next one's position along which the two are furthest
+  // apart.
+  std::vector<image_t> image_ids = model.RegImageIds();
+  std::sort(image_ids.begin(), image_ids.end());
+  const image_t first = image_ids[0];
+  const image_t second = image_ids[1];
   const Rigid3d first_pose = model.Image(first).CamFromWorld();
-  const double second_x = model.Image(second).CamFromWorld().translation.x();
+  const Eigen::Vector3d baseline =
+      (first_pose * Inverse(model.Image(second).CamFromWorld())).translation();
+  Eigen::Index fixed_dim = 0;
+  ASSERT_GT(baseline.cwiseAbs().maxCoeff(&fixed_dim), 1e-9);
+  const double second_coordinate =
+      model.Image(second).CamFromWorld().translation()(fixed_dim);
 
-  const ceres::Solver::Summary summary =
-      AdjustAllObservations(ba_options, ba_options.solver_options, &model);
+  const ceres::Solver::Summary summary = AdjustAllObservations(
+      ba_options, ba_options.ceres->solver_options, &model);
   ASSERT_TRUE(summary.IsSolutionUsable());
   EXPECT_LT(summary.final_cost, 0.01 * summary.initial_cost);
   size_t num_observations = 0;
@@ -224,24 +239,25 @@ TEST(AdjustAllObservations, UndoesAPerturbationWithTheMappersGauge) {
   // The gauge: the first image's pose (its quaternion normalized by the
   // adjuster) and one coordinate of the second's translation stay where they
   // were.
-  EXPECT_LT(model.Image(first).CamFromWorld().rotation.angularDistance(
-                first_pose.rotation),
+  const Rigid3d first_pose_after = model.Image(first).CamFromWorld();
+  EXPECT_LT(first_pose_after.rotation().angularDistance(first_pose.rotation()),
             1e-12);
-  EXPECT_EQ(model.Image(first).CamFromWorld().translation,
-            first_pose.translation);
-  EXPECT_EQ(model.Image(second).CamFromWorld().translation.x(), second_x);
+  EXPECT_EQ(Eigen::Vector3d(first_pose_after.translation()),
+            Eigen::Vector3d(first_pose.translation()));
+  EXPECT_EQ(model.Image(second).CamFromWorld().translation()(fixed_dim),
+            second_coordinate);
 
   // Nothing to adjust: no iteration, not usable.
   Reconstruction single = model;
-  const std::vector<image_t> reg_image_ids = single.RegImageIds();
-  for (const image_t image_id : reg_image_ids) {
-    if (image_id != first) {
-      single.DeRegisterImage(image_id);
+  const std::vector<frame_t> reg_frame_ids = single.RegFrameIds();
+  for (const frame_t frame_id : reg_frame_ids) {
+    if (frame_id != single.Image(first).FrameId()) {
+      single.DeRegisterFrame(frame_id);
     }
   }
   ASSERT_EQ(single.NumRegImages(), 1);
-  const ceres::Solver::Summary nothing =
-      AdjustAllObservations(ba_options, ba_options.solver_options, &single);
+  const ceres::Solver::Summary nothing = AdjustAllObservations(
+      ba_options, ba_options.ceres->solver_options, &single);
   EXPECT_FALSE(nothing.IsSolutionUsable());
   EXPECT_TRUE(nothing.iterations.empty());
 }
@@ -256,8 +272,8 @@ TEST(RefinePointsWithFixedCameras, LeavesCamerasAndExcludedPointsAlone) {
                                /*max_points_per_problem=*/1000,
                                &model);
   for (const image_t image_id : model.RegImageIds()) {
-    EXPECT_EQ(model.Image(image_id).CamFromWorld().translation,
-              before.Image(image_id).CamFromWorld().translation);
+    EXPECT_EQ(model.Image(image_id).CamFromWorld().params,
+              before.Image(image_id).CamFromWorld().params);
   }
   for (const auto& camera : model.Cameras()) {
     EXPECT_EQ(camera.second.params, before.Camera(camera.first).params);

@@ -16,12 +16,15 @@ namespace {
 Reconstruction NoisyScene(const double stddev) {
   SetPRNGSeed(3);
   SyntheticDatasetOptions options;
-  options.num_cameras = 2;
-  options.num_images = 10;
+  options.num_rigs = 2;
+  options.num_cameras_per_rig = 1;
+  options.num_frames_per_rig = 5;
   options.num_points3D = 2000;
-  options.point2D_stddev = stddev;
   Reconstruction model;
   SynthesizeDataset(options, &model);
+  SyntheticNoiseOptions noise_options;
+  noise_options.point2D_stddev = stddev;
+  SynthesizeNoise(noise_options, &model);
   return model;
 }
 

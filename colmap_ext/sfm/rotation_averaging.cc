@@ -48,7 +48,7 @@ bool InitializeFromSpanningTree(
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
     return relative_rotations[a].weight > relative_rotations[b].weight;
   });
-  UnionFind sets(num_nodes);
+  DisjointSets sets(num_nodes);
   std::vector<std::vector<size_t>> tree_edges(num_nodes);
   for (const size_t edge_idx : order) {
     const RelativeRotation& edge = relative_rotations[edge_idx];
@@ -88,23 +88,18 @@ bool InitializeFromSpanningTree(
 
 // Linearisation around the current rotations: one 3-row block per edge,
 //   x_node2 - x_node1 = log(R_2^T R_12 R_1),
-// with the reference node's columns left out.
-void Linearize(const int num_nodes,
-               const std::vector<RelativeRotation>& relative_rotations,
-               const int reference_node,
-               const std::vector<Eigen::Quaterniond>& rotations,
-               Eigen::SparseMatrix<double>* A,
-               Eigen::VectorXd* b) {
+// with the reference node's columns left out. The matrix depends on the
+// graph alone; the right-hand side on the current rotations.
+Eigen::SparseMatrix<double> LinearSystemMatrix(
+    const int num_nodes,
+    const std::vector<RelativeRotation>& relative_rotations,
+    const int reference_node) {
   auto column = [reference_node](int node) {
     return node < reference_node ? node : node - 1;
   };
   std::vector<Eigen::Triplet<double>> triplets;
-  b->resize(3 * relative_rotations.size());
   for (size_t e = 0; e < relative_rotations.size(); ++e) {
     const RelativeRotation& edge = relative_rotations[e];
-    const Eigen::Quaterniond residual =
-        rotations[edge.node2].inverse() * edge.rotation * rotations[edge.node1];
-    b->segment<3>(3 * e) = RotationToAngleAxis(residual);
     for (int d = 0; d < 3; ++d) {
       if (edge.node2 != reference_node) {
         triplets.emplace_back(3 * e + d, 3 * column(edge.node2) + d, 1.0);
@@ -114,8 +109,23 @@ void Linearize(const int num_nodes,
       }
     }
   }
-  A->resize(3 * relative_rotations.size(), 3 * (num_nodes - 1));
-  A->setFromTriplets(triplets.begin(), triplets.end());
+  Eigen::SparseMatrix<double> A(3 * relative_rotations.size(),
+                                3 * (num_nodes - 1));
+  A.setFromTriplets(triplets.begin(), triplets.end());
+  return A;
+}
+
+Eigen::VectorXd LinearSystemResiduals(
+    const std::vector<RelativeRotation>& relative_rotations,
+    const std::vector<Eigen::Quaterniond>& rotations) {
+  Eigen::VectorXd b(3 * relative_rotations.size());
+  for (size_t e = 0; e < relative_rotations.size(); ++e) {
+    const RelativeRotation& edge = relative_rotations[e];
+    const Eigen::Quaterniond residual =
+        rotations[edge.node2].inverse() * edge.rotation * rotations[edge.node1];
+    b.segment<3>(3 * e) = RotationToAngleAxis(residual);
+  }
+  return b;
 }
 
 // Applies R_k <- R_k exp(x_k) and returns the largest update angle.
@@ -174,8 +184,8 @@ bool AverageRotations(int num_nodes,
     return true;
   }
 
-  Eigen::SparseMatrix<double> A;
-  Eigen::VectorXd b;
+  const Eigen::SparseMatrix<double> A =
+      LinearSystemMatrix(num_nodes, relative_rotations, reference_node);
   // Per row: the confidence of its edge, relative to the largest.
   double max_weight = 0;
   for (const RelativeRotation& edge : relative_rotations) {
@@ -187,22 +197,26 @@ bool AverageRotations(int num_nodes,
                                              max_weight);
   }
 
-  // L1RA.
-  LeastAbsoluteDeviationsOptions l1_options;
-  l1_options.max_num_iterations = 5000;
-  l1_options.absolute_tolerance = 1e-10;
-  l1_options.relative_tolerance = 1e-8;
-  for (int iter = 0; iter < options.max_num_l1_iterations; ++iter) {
-    Linearize(
-        num_nodes, relative_rotations, reference_node, *rotations, &A, &b);
-    A = confidence.asDiagonal() * A;
-    b = confidence.asDiagonal() * b;
-    Eigen::VectorXd x = Eigen::VectorXd::Zero(A.cols());
-    if (!SolveLeastAbsoluteDeviations(l1_options, A, b, &x)) {
-      return false;
-    }
-    if (ApplyUpdate(x, reference_node, rotations) < options.l1_step_tolerance) {
-      break;
+  // L1RA: the weighted matrix is factorised once for all iterations.
+  if (options.max_num_l1_iterations > 0) {
+    LeastAbsoluteDeviationSolver::Options l1_options;
+    l1_options.max_num_iterations = 5000;
+    l1_options.absolute_tolerance = 1e-10;
+    l1_options.relative_tolerance = 1e-8;
+    const Eigen::SparseMatrix<double> weighted_A = confidence.asDiagonal() * A;
+    const LeastAbsoluteDeviationSolver l1_solver(l1_options, weighted_A);
+    for (int iter = 0; iter < options.max_num_l1_iterations; ++iter) {
+      const Eigen::VectorXd weighted_b =
+          confidence.asDiagonal() *
+          LinearSystemResiduals(relative_rotations, *rotations);
+      Eigen::VectorXd x = Eigen::VectorXd::Zero(A.cols());
+      if (!l1_solver.Solve(weighted_b, &x)) {
+        return false;
+      }
+      if (ApplyUpdate(x, reference_node, rotations) <
+          options.l1_step_tolerance) {
+        break;
+      }
     }
   }
 
@@ -211,8 +225,8 @@ bool AverageRotations(int num_nodes,
   const double sigma_sq = sigma * sigma;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver;
   for (int iter = 0; iter < options.max_num_irls_iterations; ++iter) {
-    Linearize(
-        num_nodes, relative_rotations, reference_node, *rotations, &A, &b);
+    const Eigen::VectorXd b =
+        LinearSystemResiduals(relative_rotations, *rotations);
     Eigen::VectorXd weights(A.rows());
     for (size_t e = 0; e < relative_rotations.size(); ++e) {
       const double residual_sq = b.segment<3>(3 * e).squaredNorm();

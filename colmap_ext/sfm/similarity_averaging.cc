@@ -74,12 +74,13 @@ bool SolveDifferenceSystem(const std::vector<int>& nodes,
     }
     solution = solver.solve(A.transpose() * weighted_b);
   } else {
-    LeastAbsoluteDeviationsOptions l1_options;
+    LeastAbsoluteDeviationSolver::Options l1_options;
     l1_options.max_num_iterations = 20000;
     l1_options.absolute_tolerance = 1e-12;
     l1_options.relative_tolerance = 1e-10;
+    const LeastAbsoluteDeviationSolver solver(l1_options, A);
     solution = Eigen::VectorXd::Zero(A.cols());
-    if (!SolveLeastAbsoluteDeviations(l1_options, A, weighted_b, &solution)) {
+    if (!solver.Solve(weighted_b, &solution)) {
       return false;
     }
   }
@@ -102,19 +103,19 @@ void TranslationMeasurement(const RelativeSimilarity& edge,
                             double* spread) {
   if (edge.points1.empty()) {
     *measurement =
-        world_from_second.scale *
-        (world_from_second.rotation * edge.second_from_first.translation);
+        world_from_second.scale() *
+        (world_from_second.rotation() * edge.second_from_first.translation());
     *spread = measurement->norm();
     return;
   }
   std::vector<Eigen::Vector3d> world_points2(edge.points2.size());
   std::vector<double> differences[3];
   for (size_t k = 0; k < edge.points1.size(); ++k) {
-    world_points2[k] = world_from_second.scale *
-                       (world_from_second.rotation * edge.points2[k]);
+    world_points2[k] = world_from_second.scale() *
+                       (world_from_second.rotation() * edge.points2[k]);
     const Eigen::Vector3d difference =
-        world_points2[k] -
-        world_from_first.scale * (world_from_first.rotation * edge.points1[k]);
+        world_points2[k] - world_from_first.scale() *
+                               (world_from_first.rotation() * edge.points1[k]);
     for (int d = 0; d < 3; ++d) {
       differences[d].push_back(difference(d));
     }
@@ -153,7 +154,7 @@ bool AveragePart(const std::vector<int>& nodes,
   {
     Eigen::VectorXd b(edges.size());
     for (size_t e = 0; e < edges.size(); ++e) {
-      b(e) = std::log(edges[e]->second_from_first.scale);
+      b(e) = std::log(edges[e]->second_from_first.scale());
     }
     if (!SolveDifferenceSystem(nodes,
                                edge_nodes,
@@ -176,7 +177,7 @@ bool AveragePart(const std::vector<int>& nodes,
       RelativeRotation relative_rotation;
       relative_rotation.node1 = local.at(edges[e]->community1);
       relative_rotation.node2 = local.at(edges[e]->community2);
-      relative_rotation.rotation = edges[e]->second_from_first.rotation;
+      relative_rotation.rotation = edges[e]->second_from_first.rotation();
       relative_rotation.weight = edge_weights[e];
       relative_rotations.push_back(relative_rotation);
     }
@@ -190,9 +191,9 @@ bool AveragePart(const std::vector<int>& nodes,
   }
   for (size_t k = 0; k < nodes.size(); ++k) {
     Sim3d& transform = (*world_from_community)[nodes[k]];
-    transform.scale = std::exp(log_scales(k));
-    transform.rotation = community_from_world[k].inverse();
-    transform.translation.setZero();
+    transform.scale() = std::exp(log_scales(k));
+    transform.rotation() = community_from_world[k].inverse();
+    transform.translation().setZero();
   }
 
   // 3. Translation: T_i - T_j = T_ij, re-estimated from the correspondences.
@@ -223,7 +224,7 @@ bool AveragePart(const std::vector<int>& nodes,
     return false;
   }
   for (size_t k = 0; k < nodes.size(); ++k) {
-    (*world_from_community)[nodes[k]].translation =
+    (*world_from_community)[nodes[k]].translation() =
         translations.segment<3>(3 * k);
   }
   return true;
@@ -239,18 +240,19 @@ SimilarityAveragingResult::EdgeReport ComputeEdgeResiduals(
   SimilarityAveragingResult::EdgeReport report;
   // Predicted R_ij = R_j^T R_i, s_ij = s_i / s_j.
   const Eigen::Quaterniond predicted_rotation =
-      world_from_second.rotation.inverse() * world_from_first.rotation;
+      world_from_second.rotation().inverse() * world_from_first.rotation();
   report.rotation_residual_deg = RadToDeg(
-      predicted_rotation.angularDistance(edge.second_from_first.rotation));
-  report.log_scale_residual = std::abs(std::log(world_from_first.scale) -
-                                       std::log(world_from_second.scale) -
-                                       std::log(edge.second_from_first.scale));
+      predicted_rotation.angularDistance(edge.second_from_first.rotation()));
+  report.log_scale_residual =
+      std::abs(std::log(world_from_first.scale()) -
+               std::log(world_from_second.scale()) -
+               std::log(edge.second_from_first.scale()));
   Eigen::Vector3d measurement;
   double spread;
   TranslationMeasurement(
       edge, world_from_first, world_from_second, &measurement, &spread);
-  const double residual = (world_from_first.translation -
-                           world_from_second.translation - measurement)
+  const double residual = (world_from_first.translation() -
+                           world_from_second.translation() - measurement)
                               .norm();
   report.relative_translation_residual =
       spread > 0 ? residual / spread : (residual > 0 ? 1e9 : 0.0);
@@ -423,7 +425,7 @@ SimilarityAveragingResult AverageSimilarities(
     THROW_CHECK_GE(edge.community2, 0);
     THROW_CHECK_LT(edge.community2, num_communities);
     THROW_CHECK_NE(edge.community1, edge.community2);
-    THROW_CHECK_GT(edge.second_from_first.scale, 0);
+    THROW_CHECK_GT(edge.second_from_first.scale(), 0);
     THROW_CHECK_EQ(edge.points1.size(), edge.points2.size());
   }
 

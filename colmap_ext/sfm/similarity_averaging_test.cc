@@ -119,7 +119,7 @@ Problem MakeProblem(const int num_communities,
     edge.num_inliers = 100;
     const bool outlier = is_outlier[e];
     const Eigen::Vector3d center =
-        0.5 * (world_from_1.translation + world_from_2.translation);
+        0.5 * (world_from_1.translation() + world_from_2.translation());
     for (int k = 0; k < 40; ++k) {
       const Eigen::Vector3d world_point =
           center + 10 * Eigen::Vector3d(unit_normal(rng),
@@ -140,15 +140,15 @@ Problem MakeProblem(const int num_communities,
     } else {
       // X2 = (world_from_2)^-1 world_from_1 X1, then perturbed.
       edge.second_from_first = Inverse(world_from_2) * world_from_1;
-      edge.second_from_first.scale *=
+      edge.second_from_first.scale() *=
           std::exp(noise.log_scale * unit_normal(rng));
-      edge.second_from_first.rotation =
+      edge.second_from_first.rotation() =
           Eigen::Quaterniond(Eigen::AngleAxisd(
               DegToRad(noise.rotation_deg) * unit_normal(rng),
               Eigen::Vector3d(
                   unit_normal(rng), unit_normal(rng), unit_normal(rng))
                   .normalized())) *
-          edge.second_from_first.rotation;
+          edge.second_from_first.rotation();
     }
     problem.edges.push_back(edge);
     problem.is_outlier.push_back(outlier);
@@ -175,13 +175,13 @@ Errors MaxErrors(const SimilarityAveragingResult& result,
   for (size_t i = 0; i < problem.world_from_community.size(); ++i) {
     const Sim3d truth = gauge * problem.world_from_community[i];
     const Sim3d& estimate = result.world_from_community[i];
-    errors.rotation_deg =
-        std::max(errors.rotation_deg,
-                 RadToDeg(estimate.rotation.angularDistance(truth.rotation)));
+    errors.rotation_deg = std::max(
+        errors.rotation_deg,
+        RadToDeg(estimate.rotation().angularDistance(truth.rotation())));
     errors.log_scale = std::max(
-        errors.log_scale, std::abs(std::log(estimate.scale / truth.scale)));
+        errors.log_scale, std::abs(std::log(estimate.scale() / truth.scale())));
     errors.position = std::max(
-        errors.position, (estimate.translation - truth.translation).norm());
+        errors.position, (estimate.translation() - truth.translation()).norm());
   }
   return errors;
 }
@@ -307,9 +307,9 @@ TEST(AverageSimilarities, UnconnectedCommunitiesFormSeparateParts) {
   // Parts by total size: {3, 4} has 55 images, {0, 1, 2} has 30.
   EXPECT_EQ(result.part_of_community, (std::vector<int>{1, 1, 1, 0, 0}));
   // Each part's largest community is its reference.
-  EXPECT_LT(result.world_from_community[3].translation.norm(), 1e-12);
-  EXPECT_NEAR(result.world_from_community[3].scale, 1.0, 1e-12);
-  EXPECT_LT(result.world_from_community[0].translation.norm(), 1e-12);
+  EXPECT_LT(result.world_from_community[3].translation().norm(), 1e-12);
+  EXPECT_NEAR(result.world_from_community[3].scale(), 1.0, 1e-12);
+  EXPECT_LT(result.world_from_community[0].translation().norm(), 1e-12);
 }
 
 TEST(AverageSimilarities, EdgesWithoutPointsUseTheirTranslation) {
@@ -678,9 +678,10 @@ TEST(AverageSimilarities,
   const Sim3d gauge = Inverse(problem.world_from_community[0]);
   for (const int c : {1, 2}) {
     const Sim3d truth = gauge * problem.world_from_community[c];
-    EXPECT_LT(RadToDeg(result.world_from_community[c].rotation.angularDistance(
-                  truth.rotation)),
-              1e-6)
+    EXPECT_LT(
+        RadToDeg(result.world_from_community[c].rotation().angularDistance(
+            truth.rotation())),
+        1e-6)
         << c;
   }
 

@@ -22,13 +22,16 @@
 #include "colmap_ext/util/atomic_output.h"
 
 #include "colmap/controllers/option_manager.h"
+#include "colmap/estimators/bundle_adjustment_ceres.h"
 #include "colmap/scene/reconstruction.h"
-#include "colmap/util/misc.h"
+#include "colmap/util/file.h"
 #include "colmap/util/timer.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <filesystem>
 
-#include <boost/filesystem.hpp>
 #include <ceres/ceres.h>
 
 namespace colmap {
@@ -48,7 +51,9 @@ int RunModelAdjuster(int argc, char** argv) {
   options.AddDefaultOption("function_tolerance", &function_tolerance);
   options.AddDefaultOption("initial_trust_region_radius",
                            &initial_trust_region_radius);
-  options.Parse(argc, argv);
+  if (!options.Parse(argc, argv)) {
+    return EXIT_FAILURE;
+  }
 
   if (!IsModelDir(input_path)) {
     LOG(ERROR) << "No COLMAP model at --input_path " << input_path;
@@ -76,7 +81,7 @@ int RunModelAdjuster(int argc, char** argv) {
   }
 
   const BundleAdjustmentOptions ba_options;
-  ceres::Solver::Options solver_options = ba_options.solver_options;
+  ceres::Solver::Options solver_options = ba_options.ceres->solver_options;
   solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
   solver_options.max_num_iterations = max_num_iterations;
   solver_options.function_tolerance = function_tolerance;
@@ -91,14 +96,19 @@ int RunModelAdjuster(int argc, char** argv) {
   }
   // Written beside the output and renamed into place file by file, so that
   // the model there (the input itself, if asked) is never half-written.
-  const std::string temporary = output_path + ".tmp-model_adjuster";
-  boost::filesystem::create_directories(temporary);
+  const std::filesystem::path temporary =
+      output_path + ".tmp-model_adjuster";
+  std::filesystem::create_directories(temporary);
   reconstruction.WriteBinary(temporary);
-  for (const char* name : {"cameras.bin", "images.bin", "points3D.bin"}) {
-    boost::filesystem::rename(JoinPaths(temporary, name),
-                              JoinPaths(output_path, name));
+  for (const char* name : {"rigs.bin",
+                           "cameras.bin",
+                           "frames.bin",
+                           "images.bin",
+                           "points3D.bin"}) {
+    std::filesystem::rename(temporary / name,
+                            std::filesystem::path(output_path) / name);
   }
-  boost::filesystem::remove(temporary);
+  std::filesystem::remove(temporary);
 
   const double num_residuals = std::max(1, summary.num_residuals_reduced);
   std::printf("num_residuals %d\n", summary.num_residuals_reduced);

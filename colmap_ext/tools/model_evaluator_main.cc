@@ -9,17 +9,22 @@
 // --output_path, to a file; --aligned_centers_path writes the aligned and
 // true camera centres. --image_list_path (one image name per line, as
 // COLMAP's image lists) aligns and measures those images alone, e.g. one
-// community's in a merged model.
+// community's in a merged model. For a ground truth with multi-camera rigs,
+// rig_rotation_error_deg and rig_baseline_error_fraction give the error of
+// the model's rig calibration (the largest over the rigs' cameras).
 
 #include "colmap_ext/scene/community_io.h"
 #include "colmap_ext/scene/model_evaluation.h"
 #include "colmap_ext/util/atomic_output.h"
 
 #include "colmap/controllers/option_manager.h"
-#include "colmap/util/misc.h"
+#include "colmap/util/file.h"
+#include "colmap/util/string.h"
 
+#include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
 
 namespace colmap {
 namespace {
@@ -40,7 +45,9 @@ int RunModelEvaluator(int argc, char** argv) {
   options.AddDefaultOption("image_list_path", &image_list_path);
   options.AddDefaultOption("alignment_max_error_fraction",
                            &evaluation_options.alignment_max_error_fraction);
-  options.Parse(argc, argv);
+  if (!options.Parse(argc, argv)) {
+    return EXIT_FAILURE;
+  }
 
   if (!IsModelDir(ground_truth_path)) {
     LOG(ERROR) << "No COLMAP model at --ground_truth_path "
@@ -51,9 +58,14 @@ int RunModelEvaluator(int argc, char** argv) {
   if (IsModelDir(model_path)) {
     model_dirs.push_back(model_path);
   } else if (ExistsDir(model_path)) {
-    for (int i = 0; ExistsDir(JoinPaths(model_path, std::to_string(i))); ++i) {
-      if (IsModelDir(JoinPaths(model_path, std::to_string(i)))) {
-        model_dirs.push_back(JoinPaths(model_path, std::to_string(i)));
+    for (int i = 0;; ++i) {
+      const std::string dir =
+          (std::filesystem::path(model_path) / std::to_string(i)).string();
+      if (!ExistsDir(dir)) {
+        break;
+      }
+      if (IsModelDir(dir)) {
+        model_dirs.push_back(dir);
       }
     }
   }
@@ -106,6 +118,5 @@ int RunModelEvaluator(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   colmap::InitializeGlog(argv);
-  FLAGS_alsologtostderr = true;
   return colmap::RunModelEvaluator(argc, argv);
 }

@@ -16,7 +16,7 @@
 
 #include "colmap/controllers/option_manager.h"
 #include "colmap/util/logging.h"
-#include "colmap/util/misc.h"
+#include "colmap/util/string.h"
 #include "colmap/util/timer.h"
 
 #include <iostream>
@@ -87,7 +87,9 @@ int RunPartitionBenchmark(int argc, char** argv) {
                            &detection_options.modularity_threshold);
   options.AddDefaultOption("min_community_size",
                            &detection_options.min_community_size);
-  options.Parse(argc, argv);
+  if (!options.Parse(argc, argv)) {
+    return EXIT_FAILURE;
+  }
   THROW_CHECK_GT(num_images, 1);
   THROW_CHECK_GT(num_images_per_place, 1);
   THROW_CHECK_GE(degree, 2);

@@ -1,10 +1,13 @@
 // scene_generator: writes a generated scene with community structure (see
 // colmap_ext/scene/synthetic_scene.h) as a COLMAP project:
 //
-//   OUT/database.db     cameras, images, keypoints, matches, two-view
-//                       geometries, as COLMAP's extractor and matcher write
+//   OUT/database.db     rigs, cameras, frames, images, keypoints, matches,
+//                       two-view geometries, as COLMAP's extractor and
+//                       matcher write them (and rig_configurator, with
+//                       --num_rig_cameras > 1)
 //   OUT/images/         empty: there are no photos, mappers only warn
-//   OUT/ground_truth/   the true cameras, images and points (binary model)
+//   OUT/ground_truth/   the true rigs, cameras, frames, images and points
+//                       (binary model)
 //   OUT/clusters.txt    IMAGE_NAME CLUSTER, -1 for walkway images
 //
 //   scene_generator --output_path OUT --num_clusters 3 --seed 1 ...
@@ -12,8 +15,12 @@
 #include "colmap_ext/scene/synthetic_scene.h"
 
 #include "colmap/controllers/option_manager.h"
-#include "colmap/util/misc.h"
+#include "colmap/scene/database.h"
+#include "colmap/util/file.h"
+#include "colmap/util/string.h"
 #include "colmap/util/timer.h"
+
+#include <filesystem>
 
 namespace colmap {
 namespace {
@@ -42,6 +49,9 @@ int RunSceneGenerator(int argc, char** argv) {
   options.AddDefaultOption("image_height", &scene_options.image_height);
   options.AddDefaultOption("focal_length", &scene_options.focal_length);
   options.AddDefaultOption("single_camera", &scene_options.single_camera);
+  options.AddDefaultOption("num_rig_cameras", &scene_options.num_rig_cameras);
+  options.AddDefaultOption("rig_baseline", &scene_options.rig_baseline);
+  options.AddDefaultOption("rig_yaw_deg", &scene_options.rig_yaw_deg);
   options.AddDefaultOption("focal_length_noise",
                            &scene_options.focal_length_noise);
   options.AddDefaultOption("keypoint_noise", &scene_options.keypoint_noise);
@@ -52,13 +62,17 @@ int RunSceneGenerator(int argc, char** argv) {
   options.AddDefaultOption("min_num_inliers", &scene_options.min_num_inliers);
   options.AddDefaultOption("outlier_match_ratio",
                            &scene_options.outlier_match_ratio);
+  options.AddDefaultOption("epipolar_outliers",
+                           &scene_options.epipolar_outliers);
   options.AddDefaultOption("num_false_pairs", &scene_options.num_false_pairs);
   options.AddDefaultOption("false_pair_num_matches",
                            &scene_options.false_pair_num_matches);
   options.AddDefaultOption("num_repeated_structure_pairs",
                            &scene_options.num_repeated_structure_pairs);
   options.AddDefaultOption("seed", &seed);
-  options.Parse(argc, argv);
+  if (!options.Parse(argc, argv)) {
+    return EXIT_FAILURE;
+  }
   scene_options.seed = static_cast<unsigned int>(seed);
 
   if (!scene_options.Check()) {
@@ -66,33 +80,36 @@ int RunSceneGenerator(int argc, char** argv) {
     return EXIT_FAILURE;
   }
 
-  const std::string database_path = JoinPaths(output_path, "database.db");
-  const std::string ground_truth_path = JoinPaths(output_path, "ground_truth");
+  const std::filesystem::path database_path =
+      std::filesystem::path(output_path) / "database.db";
+  const std::filesystem::path ground_truth_path =
+      std::filesystem::path(output_path) / "ground_truth";
   if (ExistsFile(database_path)) {
     if (!overwrite) {
-      LOG(ERROR) << database_path
+      LOG(ERROR) << database_path.string()
                  << " exists: choose another --output_path or pass "
                     "--overwrite 1.";
       return EXIT_FAILURE;
     }
     for (const std::string suffix : {"", "-wal", "-shm"}) {
-      boost::filesystem::remove(database_path + suffix);
+      std::filesystem::remove(database_path.string() + suffix);
     }
-    boost::filesystem::remove_all(ground_truth_path);
+    std::filesystem::remove_all(ground_truth_path);
   }
   CreateDirIfNotExists(output_path, /*recursive=*/true);
-  CreateDirIfNotExists(JoinPaths(output_path, "images"));
+  CreateDirIfNotExists(std::filesystem::path(output_path) / "images");
   CreateDirIfNotExists(ground_truth_path);
 
   Timer timer;
   timer.Start();
   SyntheticScene scene;
   {
-    Database database(database_path);
-    SynthesizeCommunityScene(scene_options, &scene, &database);
+    const std::shared_ptr<Database> database = Database::Open(database_path);
+    SynthesizeCommunityScene(scene_options, &scene, database.get());
   }
   scene.ground_truth.Write(ground_truth_path);
-  WriteImageClusters(scene, JoinPaths(output_path, "clusters.txt"));
+  WriteImageClusters(
+      scene, (std::filesystem::path(output_path) / "clusters.txt").string());
 
   LOG(INFO) << StringPrintf(
       "Generated %d images (%d clusters of %d, %d per walkway), %d points, "
@@ -116,6 +133,5 @@ int RunSceneGenerator(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   colmap::InitializeGlog(argv);
-  FLAGS_alsologtostderr = true;
   return colmap::RunSceneGenerator(argc, argv);
 }

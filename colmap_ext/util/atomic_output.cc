@@ -1,14 +1,15 @@
 #include "colmap_ext/util/atomic_output.h"
 
+#include "colmap/util/file.h"
 #include "colmap/util/logging.h"
-#include "colmap/util/misc.h"
 
 #include <cerrno>
 #include <csignal>
+#include <filesystem>
 #include <fstream>
+#include <system_error>
 #include <vector>
 
-#include <boost/filesystem.hpp>
 #include <unistd.h>
 
 namespace colmap {
@@ -68,21 +69,20 @@ bool IsEndedWriterOfThisHost(const std::string& tag) {
 namespace {
 
 std::string ParentFolder(const std::string& path) {
-  const boost::filesystem::path parent =
-      boost::filesystem::path(path).parent_path();
+  const std::filesystem::path parent =
+      std::filesystem::path(path).parent_path();
   return parent.empty() ? "." : parent.string();
 }
 
 }  // namespace
 
 int RemoveLeftoversOfEndedWriters(const std::string& folder) {
-  boost::system::error_code error;
-  if (!boost::filesystem::is_directory(folder, error)) {
+  std::error_code error;
+  if (!std::filesystem::is_directory(folder, error)) {
     return 0;
   }
-  std::vector<boost::filesystem::path> leftovers;
-  for (const auto& entry :
-       boost::filesystem::directory_iterator(folder, error)) {
+  std::vector<std::filesystem::path> leftovers;
+  for (const auto& entry : std::filesystem::directory_iterator(folder, error)) {
     const std::string name = entry.path().filename().string();
     for (const std::string marker : {".tmp-", ".old-"}) {
       const size_t position = name.rfind(marker);
@@ -93,16 +93,16 @@ int RemoveLeftoversOfEndedWriters(const std::string& folder) {
       // A previous output moved aside is the only copy where the writer
       // ended before its new output took the name: it stays then.
       if (marker == ".old-" &&
-          !boost::filesystem::exists(boost::filesystem::path(folder) /
-                                     name.substr(0, position))) {
+          !std::filesystem::exists(std::filesystem::path(folder) /
+                                   name.substr(0, position))) {
         continue;
       }
       leftovers.push_back(entry.path());
     }
   }
   for (const auto& leftover : leftovers) {
-    boost::system::error_code ignored;
-    boost::filesystem::remove_all(leftover, ignored);
+    std::error_code ignored;
+    std::filesystem::remove_all(leftover, ignored);
   }
   return static_cast<int>(leftovers.size());
 }
@@ -110,26 +110,27 @@ int RemoveLeftoversOfEndedWriters(const std::string& folder) {
 void WriteReconstructionAtomically(const Reconstruction& reconstruction,
                                    const std::string& path) {
   const std::string temporary = TemporaryPath(path);
-  boost::filesystem::remove_all(temporary);
+  std::filesystem::remove_all(temporary);
   try {
-    boost::filesystem::create_directories(temporary);
+    std::filesystem::create_directories(temporary);
+    // Rigs, cameras, frames, images and points, in COLMAP's binary format.
     reconstruction.WriteBinary(temporary);
   } catch (...) {
-    boost::system::error_code ignored;
-    boost::filesystem::remove_all(temporary, ignored);
+    std::error_code ignored;
+    std::filesystem::remove_all(temporary, ignored);
     throw;
   }
 
   // A folder cannot be renamed over a non-empty one: move the old one aside
   // first, then drop it.
   const std::string previous = PreviousPath(path);
-  const bool had_previous = boost::filesystem::exists(path);
+  const bool had_previous = std::filesystem::exists(path);
   if (had_previous) {
-    boost::filesystem::rename(path, previous);
+    std::filesystem::rename(path, previous);
   }
-  boost::filesystem::rename(temporary, path);
+  std::filesystem::rename(temporary, path);
   if (had_previous) {
-    boost::filesystem::remove_all(previous);
+    std::filesystem::remove_all(previous);
   }
   RemoveLeftoversOfEndedWriters(ParentFolder(path));
 }
@@ -143,14 +144,16 @@ void WriteTextFileAtomically(const std::string& text, const std::string& path) {
     file.close();
     THROW_CHECK(file.good()) << "Could not write " << temporary;
   }
-  boost::filesystem::rename(temporary, path);
+  std::filesystem::rename(temporary, path);
   RemoveLeftoversOfEndedWriters(ParentFolder(path));
 }
 
 bool IsModelDir(const std::string& path) {
+  // Rigs and frames (rigs.bin, frames.bin) are optional: COLMAP reads a
+  // model without them with one rig per camera and one frame per image.
   for (const std::string name : {"cameras", "images", "points3D"}) {
-    if (ExistsFile(JoinPaths(path, name + ".bin")) ||
-        ExistsFile(JoinPaths(path, name + ".txt"))) {
+    if (ExistsFile(std::filesystem::path(path) / (name + ".bin")) ||
+        ExistsFile(std::filesystem::path(path) / (name + ".txt"))) {
       return true;
     }
   }

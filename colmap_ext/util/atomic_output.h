@@ -27,8 +27,8 @@ std::string WriterTag();
 // (no longer runs, or a zombie nobody reaped yet).
 bool IsEndedWriterOfThisHost(const std::string& tag);
 
-// Writes the model (COLMAP binary format) to the folder `path`, replacing
-// a model that is there.
+// Writes the model (COLMAP binary format: rigs, cameras, frames, images,
+// points3D) to the folder `path`, replacing a model that is there.
 void WriteReconstructionAtomically(const Reconstruction& reconstruction,
                                    const std::string& path);
 
@@ -45,7 +45,8 @@ void WriteTextFileAtomically(const std::string& text, const std::string& path);
 // output is in place. Returns the number of leftovers removed.
 int RemoveLeftoversOfEndedWriters(const std::string& folder);
 
-// Whether the folder holds a COLMAP model (cameras, images, points3D).
+// Whether the folder holds a COLMAP model (cameras, images, points3D, in
+// binary or text format; rigs and frames beside them where it has them).
 bool IsModelDir(const std::string& path);
 
 }  // namespace colmap

@@ -2,16 +2,16 @@
 
 #include "colmap_ext/util/testing.h"
 
-#include "colmap/util/misc.h"
+#include "colmap/util/file.h"
 
 #include <chrono>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -28,43 +28,67 @@ std::string ReadText(const std::string& path) {
 
 Reconstruction TwoImages() {
   Reconstruction reconstruction;
-  reconstruction.AddCamera(
+  reconstruction.AddCameraWithTrivialRig(
       Camera::CreateFromModelName(1, "PINHOLE", 100, 100, 100));
   for (image_t image_id = 1; image_id <= 2; ++image_id) {
     Image image;
     image.SetImageId(image_id);
     image.SetCameraId(1);
     image.SetName("image" + std::to_string(image_id));
-    reconstruction.AddImage(image);
-    reconstruction.RegisterImage(image_id);
+    reconstruction.AddImageWithTrivialFrame(image, Rigid3d());
   }
   return reconstruction;
 }
 
-TEST(WriteReconstructionAtomically, ReplacesAModelWithoutLeftovers) {
-  const std::string test_dir = CreateTestFolder();
-  const std::string path = JoinPaths(test_dir, "0");
-  CreateDirIfNotExists(path);
-  std::ofstream(JoinPaths(path, "stale.txt")) << "old";
-  EXPECT_FALSE(IsModelDir(path));
-
-  WriteReconstructionAtomically(TwoImages(), path);
-  EXPECT_TRUE(IsModelDir(path));
-  EXPECT_FALSE(ExistsFile(JoinPaths(path, "stale.txt")));
-  Reconstruction read;
-  read.Read(path);
-  EXPECT_EQ(read.NumRegImages(), 2);
-  // Only the model is left in the parent folder.
+int NumEntries(const std::filesystem::path& folder) {
   int num_entries = 0;
-  for (const auto& entry : boost::filesystem::directory_iterator(test_dir)) {
+  for (const auto& entry : std::filesystem::directory_iterator(folder)) {
     (void)entry;
     ++num_entries;
   }
-  EXPECT_EQ(num_entries, 1);
+  return num_entries;
+}
+
+TEST(WriteReconstructionAtomically, ReplacesAModelWithoutLeftovers) {
+  const std::filesystem::path test_dir = CreateTestFolder();
+  const std::filesystem::path path = test_dir / "0";
+  CreateDirIfNotExists(path);
+  std::ofstream(path / "stale.txt") << "old";
+  EXPECT_FALSE(IsModelDir(path.string()));
+
+  WriteReconstructionAtomically(TwoImages(), path.string());
+  EXPECT_TRUE(IsModelDir(path.string()));
+  EXPECT_FALSE(ExistsFile(path / "stale.txt"));
+  for (const std::string name :
+       {"rigs", "cameras", "frames", "images", "points3D"}) {
+    EXPECT_TRUE(ExistsFile(path / (name + ".bin"))) << name;
+  }
+  EXPECT_EQ(NumEntries(path), 5);
+  Reconstruction read;
+  read.Read(path);
+  EXPECT_EQ(read.NumRegImages(), 2);
+  EXPECT_EQ(read.NumRigs(), 1);
+  EXPECT_EQ(read.NumRegFrames(), 2);
+  // Only the model is left in the parent folder.
+  EXPECT_EQ(NumEntries(test_dir), 1);
+}
+
+TEST(IsModelDir, AcceptsModelsWithOrWithoutRigsAndFrames) {
+  const std::filesystem::path path = CreateTestFolder();
+  EXPECT_FALSE(IsModelDir(path.string()));
+  // A model of cameras, images and points alone (no rigs and frames).
+  for (const std::string name : {"cameras", "images", "points3D"}) {
+    std::ofstream(path / (name + ".bin")) << "x";
+  }
+  EXPECT_TRUE(IsModelDir(path.string()));
+  std::ofstream(path / "rigs.bin") << "x";
+  std::ofstream(path / "frames.bin") << "x";
+  EXPECT_TRUE(IsModelDir(path.string()));
 }
 
 TEST(WriteTextFileAtomically, ReplacesTheFile) {
-  const std::string path = JoinPaths(CreateTestFolder(), "a.txt");
+  const std::string path =
+      (std::filesystem::path(CreateTestFolder()) / "a.txt").string();
   WriteTextFileAtomically("first\n", path);
   WriteTextFileAtomically("second\n", path);
   EXPECT_EQ(ReadText(path), "second\n");
@@ -90,15 +114,16 @@ pid_t EndedProcess() {
 TEST(RemoveLeftoversOfEndedWriters,
      RemovesOnlyWhatKilledWritersOfThisHostLeft) {
   const std::string folder = CreateTestFolder();
+  const std::filesystem::path folder_path = folder;
   const std::string ended = ThisHost() + "-" + std::to_string(EndedProcess());
   const std::string running = ThisHost() + "-" + std::to_string(::getppid());
   const auto make_dir = [&](const std::string& name) {
-    CreateDirIfNotExists(JoinPaths(folder, name));
-    std::ofstream(JoinPaths(folder, name, "cameras.bin")) << "x";
+    CreateDirIfNotExists(folder_path / name);
+    std::ofstream(folder_path / name / "cameras.bin") << "x";
   };
   // A killed writer's half-written model, and a record's temporary.
   make_dir("0.tmp-" + ended);
-  std::ofstream(JoinPaths(folder, "0.txt.tmp-" + ended)) << "half";
+  std::ofstream(folder_path / ("0.txt.tmp-" + ended)) << "half";
   // A killed writer's previous output, moved aside: garbage where the
   // output is back, the only copy where it is not.
   make_dir("1");
@@ -118,22 +143,17 @@ TEST(RemoveLeftoversOfEndedWriters,
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
 
   // A writer of another output in the folder clears them.
-  WriteTextFileAtomically("record\n", JoinPaths(folder, "5.txt"));
-  EXPECT_FALSE(ExistsDir(JoinPaths(folder, "0.tmp-" + ended)));
-  EXPECT_FALSE(ExistsFile(JoinPaths(folder, "0.txt.tmp-" + ended)));
-  EXPECT_FALSE(ExistsDir(JoinPaths(folder, "1.old-" + ended)));
-  EXPECT_TRUE(ExistsDir(JoinPaths(folder, "1")));
-  EXPECT_TRUE(ExistsDir(JoinPaths(folder, "2.old-" + ended)));
-  EXPECT_TRUE(ExistsDir(JoinPaths(folder, "3.tmp-" + running)));
-  EXPECT_FALSE(ExistsDir(JoinPaths(folder, "6.tmp-" + zombie_tag)));
+  WriteTextFileAtomically("record\n", (folder_path / "5.txt").string());
+  EXPECT_FALSE(ExistsDir(folder_path / ("0.tmp-" + ended)));
+  EXPECT_FALSE(ExistsFile(folder_path / ("0.txt.tmp-" + ended)));
+  EXPECT_FALSE(ExistsDir(folder_path / ("1.old-" + ended)));
+  EXPECT_TRUE(ExistsDir(folder_path / "1"));
+  EXPECT_TRUE(ExistsDir(folder_path / ("2.old-" + ended)));
+  EXPECT_TRUE(ExistsDir(folder_path / ("3.tmp-" + running)));
+  EXPECT_FALSE(ExistsDir(folder_path / ("6.tmp-" + zombie_tag)));
   EXPECT_EQ(::waitpid(zombie, nullptr, 0), zombie);
   EXPECT_EQ(RemoveLeftoversOfEndedWriters(folder), 0);
-  int num_entries = 0;
-  for (const auto& entry : boost::filesystem::directory_iterator(folder)) {
-    (void)entry;
-    ++num_entries;
-  }
-  EXPECT_EQ(num_entries, 5);  // 1, 2.old-, 3.tmp-, 4.tmp-, 5.txt
+  EXPECT_EQ(NumEntries(folder_path), 5);  // 1, 2.old-, 3.tmp-, 4.tmp-, 5.txt
 }
 
 }  // namespace

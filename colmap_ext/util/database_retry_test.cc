@@ -3,8 +3,8 @@
 #include "colmap_ext/util/testing.h"
 
 #include "colmap/scene/database.h"
-#include "colmap/util/misc.h"
 
+#include <filesystem>
 #include <stdexcept>
 
 #include <gtest/gtest.h>
@@ -91,8 +91,9 @@ TEST(RetryDatabaseAccessOrThrow, ThrowsTheLastErrorWithThePath) {
 // SQLite's exclusive locking mode after a write) keeps it locked while the
 // first attempts open it; once it lets go, the opening succeeds.
 TEST(RetryDatabaseAccess, OpensADatabaseOnceItsLockIsReleased) {
-  const std::string path = JoinPaths(CreateTestFolder(), "database.db");
-  { Database database(path); }
+  const std::string path =
+      (std::filesystem::path(CreateTestFolder()) / "database.db").string();
+  Database::Open(path)->Close();
   sqlite3* holder = nullptr;
   ASSERT_EQ(sqlite3_open(path.c_str(), &holder), SQLITE_OK);
   ASSERT_EQ(sqlite3_exec(holder,
@@ -111,8 +112,7 @@ TEST(RetryDatabaseAccess, OpensADatabaseOnceItsLockIsReleased) {
           sqlite3_close(holder);
           holder = nullptr;
         }
-        const Database database(path);
-        return database.NumImages() == 0;
+        return Database::Open(path)->NumImages() == 0;
       },
       QuickOptions(),
       &last_error));

@@ -3,11 +3,11 @@
 #include "colmap_ext/util/atomic_output.h"
 
 #include "colmap/util/logging.h"
-#include "colmap/util/misc.h"
 
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 
 #include <fcntl.h>
@@ -63,7 +63,8 @@ OutputLock::~OutputLock() { Release(); }
 
 std::string OutputLock::Acquire(const std::string& folder) {
   THROW_CHECK(path_.empty()) << "the lock is held already";
-  const std::string path = JoinPaths(folder, kOutputLockFileName);
+  const std::string path =
+      (std::filesystem::path(folder) / kOutputLockFileName).string();
   const std::string tag = WriterTag();
   // Twice at most: once more after taking over an ended holder's lock.
   for (int attempt = 0; attempt < 2; ++attempt) {

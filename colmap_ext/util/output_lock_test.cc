@@ -3,8 +3,9 @@
 #include "colmap_ext/util/atomic_output.h"
 #include "colmap_ext/util/testing.h"
 
-#include "colmap/util/misc.h"
+#include "colmap/util/file.h"
 
+#include <filesystem>
 #include <fstream>
 
 #include <gtest/gtest.h>
@@ -23,7 +24,8 @@ std::string ReadLine(const std::string& path) {
 
 TEST(OutputLock, OneHolderAtATime) {
   const std::string folder = CreateTestFolder();
-  const std::string path = JoinPaths(folder, kOutputLockFileName);
+  const std::string path =
+      (std::filesystem::path(folder) / kOutputLockFileName).string();
   {
     OutputLock first;
     ASSERT_EQ(first.Acquire(folder), "");
@@ -51,7 +53,8 @@ TEST(OutputLock, OneHolderAtATime) {
 
 TEST(OutputLock, LockOfAnEndedRunIsTakenOver) {
   const std::string folder = CreateTestFolder();
-  const std::string path = JoinPaths(folder, kOutputLockFileName);
+  const std::string path =
+      (std::filesystem::path(folder) / kOutputLockFileName).string();
   // A process of this host that has ended (reaped).
   const pid_t child = ::fork();
   if (child == 0) {
@@ -67,7 +70,8 @@ TEST(OutputLock, LockOfAnEndedRunIsTakenOver) {
 
 TEST(OutputLock, LockOfARunningProcessOrAnotherHostStays) {
   const std::string folder = CreateTestFolder();
-  const std::string path = JoinPaths(folder, kOutputLockFileName);
+  const std::string path =
+      (std::filesystem::path(folder) / kOutputLockFileName).string();
   // The parent of this test runs.
   const std::string running = HostName() + "-" + std::to_string(::getppid());
   std::ofstream(path) << running << "\n";

@@ -1,6 +1,6 @@
 #include "colmap_ext/util/process_memory.h"
 
-#include "colmap/util/misc.h"
+#include "colmap/util/string.h"
 
 #include <fstream>
 #include <sstream>

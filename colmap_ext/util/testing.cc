@@ -4,8 +4,8 @@
 
 #include <array>
 #include <cstdio>
+#include <filesystem>
 
-#include <boost/filesystem.hpp>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -14,11 +14,11 @@ namespace colmap {
 std::string CreateTestFolder() {
   const testing::TestInfo* test_info = THROW_CHECK_NOTNULL(
       testing::UnitTest::GetInstance()->current_test_info());
-  const boost::filesystem::path test_dir =
-      boost::filesystem::path(testing::TempDir()) / "colmap_ext_tests" /
+  const std::filesystem::path test_dir =
+      std::filesystem::path(testing::TempDir()) / "colmap_ext_tests" /
       (std::string(test_info->test_suite_name()) + "." + test_info->name());
-  boost::filesystem::remove_all(test_dir);
-  boost::filesystem::create_directories(test_dir);
+  std::filesystem::remove_all(test_dir);
+  std::filesystem::create_directories(test_dir);
   return test_dir.string();
 }
 
@@ -59,10 +59,14 @@ Reconstruction CommunityModel(const Reconstruction& ground_truth,
                               const std::set<image_t>& image_ids,
                               const Sim3d& model_from_world) {
   Reconstruction model = ground_truth;
-  for (const image_t image_id : ground_truth.RegImageIds()) {
-    if (image_ids.count(image_id) == 0) {
+  for (const frame_t frame_id : ground_truth.RegFrameIds()) {
+    bool keep = false;
+    for (const data_t& data_id : ground_truth.Frame(frame_id).ImageIds()) {
+      keep = keep || image_ids.count(static_cast<image_t>(data_id.id)) > 0;
+    }
+    if (!keep) {
       // Deletes the points left with fewer than two observations.
-      model.DeRegisterImage(image_id);
+      model.DeRegisterFrame(frame_id);
     }
   }
   model.Transform(model_from_world);

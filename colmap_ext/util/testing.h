@@ -22,9 +22,9 @@ int RunCommand(const std::string& command, std::string* output = nullptr);
 std::string ShellQuote(const std::string& text);
 
 // A community's model as its mapper would give it, cut from a ground truth:
-// only `image_ids` registered (the other images stay, unregistered; points
-// they alone held leave with them, tracks cut to the rest), moved into a
-// frame of its own by `model_from_world`.
+// only the frames of `image_ids` registered (the other images stay,
+// unregistered; points they alone held leave with them, tracks cut to the
+// rest), moved into a coordinate frame of its own by `model_from_world`.
 Reconstruction CommunityModel(const Reconstruction& ground_truth,
                               const std::set<image_t>& image_ids,
                               const Sim3d& model_from_world);

@@ -7,12 +7,12 @@
 
 namespace colmap {
 
-UnionFind::UnionFind(const int num_elements) : parent_(num_elements) {
+DisjointSets::DisjointSets(const int num_elements) : parent_(num_elements) {
   THROW_CHECK_GE(num_elements, 0);
   std::iota(parent_.begin(), parent_.end(), 0);
 }
 
-int UnionFind::Find(int element) {
+int DisjointSets::Find(int element) {
   while (parent_[element] != element) {
     parent_[element] = parent_[parent_[element]];
     element = parent_[element];
@@ -20,7 +20,7 @@ int UnionFind::Find(int element) {
   return element;
 }
 
-bool UnionFind::Union(const int element1, const int element2) {
+bool DisjointSets::Union(const int element1, const int element2) {
   const int root1 = Find(element1);
   const int root2 = Find(element2);
   if (root1 == root2) {
@@ -33,7 +33,7 @@ bool UnionFind::Union(const int element1, const int element2) {
 
 std::vector<int> ConnectedComponentLabels(
     const int num_nodes, const std::vector<std::pair<int, int>>& edges) {
-  UnionFind sets(num_nodes);
+  DisjointSets sets(num_nodes);
   for (const auto& edge : edges) {
     sets.Union(edge.first, edge.second);
   }
