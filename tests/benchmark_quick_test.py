@@ -96,7 +96,8 @@ def main():
                     "--quick", "--out", out], check=True)
     rows = list(csv.DictReader(open(os.path.join(out, "results.csv"))))
     methods = [row["method"] for row in rows]
-    assert methods == ["mapper", "community", "hierarchical", "hier_fair"], \
+    assert methods == ["mapper", "community", "hierarchical", "hier_fair",
+                       "global"], \
         methods
     numeric = ["wall_s", "cpu_s", "peak_rss_mb", "models", "registered",
                "mean_reproj_px", "median_pos_err", "p90_pos_err",
