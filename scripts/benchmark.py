@@ -158,6 +158,10 @@ SCENES = {
     "dense": dict(num_clusters=4, num_images_per_cluster=100,
                   num_images_per_link=40, close_loop=1,
                   max_viewing_distance=90, seed=4),
+    # A loop photographed by a two-camera rig (300 images, 150 frames).
+    "rig": dict(num_clusters=3, num_images_per_cluster=30,
+                num_images_per_link=20, close_loop=1, num_rig_cameras=2,
+                rig_baseline=0.3),
 }
 # The robustness families: each kind of generated scene small enough to be
 # drawn many times (--draws), clean, with noisy matches (random wrong
@@ -645,6 +649,9 @@ def run_methods(name, scene_dir, database, images, ground_truth, num_images,
             median_pos_err_frac=figures["median_position_error_fraction"],
             p90_pos_err_frac=figures["p90_position_error_fraction"],
             median_rot_err_deg=figures["median_rotation_error_deg"])
+        for figure in ("rig_rotation_error_deg", "rig_baseline_error_fraction"):
+            if figure in figures:
+                row[figure] = figures[figure]
         if method == "community":
             for phase, seconds in community_phases(run_dir).items():
                 row["phase_" + phase + "_s"] = seconds

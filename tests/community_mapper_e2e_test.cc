@@ -510,6 +510,46 @@ TEST(CommunityMapperComponents, EachComponentIsItsOwnModel) {
   EXPECT_NE(log.find("in 2 model(s)"), std::string::npos) << log;
 }
 
+// A scene photographed by a two-camera rig (one frame, one pose, per
+// snapshot of both cameras): the partition keeps a frame's images in one
+// community, the merge moves frames whole, and the merged model keeps the
+// rig as the truth has it.
+TEST(CommunityMapperRigs, FramesStayWholeAndTheRigHolds) {
+  const std::filesystem::path test_dir = CreateTestFolder();
+  const Scene scene = GenerateScene(
+      test_dir / "scene",
+      "--num_clusters 3 --num_images_per_cluster 24 --num_images_per_link 14 "
+      "--num_rig_cameras 2 --rig_baseline 0.3 --keypoint_noise 0.7 --seed 3");
+  const std::filesystem::path output_path = test_dir / "sparse";
+  std::string log;
+  ASSERT_EQ(RunMapper("community_mapper", scene, output_path, &log), 0) << log;
+
+  const std::map<std::string, int> communities =
+      ReadClusters(output_path / "communities.txt");
+  ASSERT_EQ(communities.size(), 2 * (3 * 24 + 3 * 14));
+  std::set<int> community_ids;
+  for (const auto& [name, community] : communities) {
+    community_ids.insert(community);
+    // cam0/imageN and cam1/imageN are one frame.
+    const std::string other =
+        (name.rfind("cam0/", 0) == 0 ? "cam1/" : "cam0/") + name.substr(5);
+    EXPECT_EQ(communities.at(other), community) << name;
+  }
+  EXPECT_GE(community_ids.size(), 3);
+
+  ASSERT_EQ(ModelPaths(output_path).size(), 1) << log;
+  EXPECT_TRUE(ExistsFile(output_path / "0" / "rigs.bin"));
+  EXPECT_TRUE(ExistsFile(output_path / "0" / "frames.bin"));
+  const ModelEvaluation evaluation =
+      Evaluate(output_path / "0", scene.GroundTruthPath());
+  EXPECT_EQ(evaluation.num_registered_images, communities.size());
+  EXPECT_LT(evaluation.rig_rotation_error_deg, 0.5);
+  // Typically 0.004, as colmap mapper's; the merged rig is the one of the
+  // community holding most of its frames, refined by the last adjustment,
+  // and a community's rig estimated on few frames has left 0.04.
+  EXPECT_LT(evaluation.rig_baseline_error_fraction, 0.05);
+}
+
 // Runs community_mapper on the suite's scene with `flags`, into a folder of
 // the current test; returns the output folder.
 std::filesystem::path RunOnSuiteScene(const Scene& scene,
