@@ -31,7 +31,7 @@ Scenes (default: small medium):
                            (reference cameras of a full-resolution COLMAP
                            reconstruction)
     southbuilding512       the same photographs with SIFT run at 512 px
-    southbuilding384       or 384 px (SiftExtraction.max_image_size; 10
+    southbuilding384       or 384 px (FeatureExtraction.max_image_size; 10
                            and 6 minutes)
     castle_split,          castle and herzjesu (their cached databases) with
     herzjesu_split         community_mapper splitting them anyway (inlier
@@ -476,7 +476,7 @@ def prepare_real_scene(name, out_dir):
                   str(spec["max_num_features"])]
     if "max_image_size" in spec:
         knobs["max_image_size"] = spec["max_image_size"]
-        extraction += ["--SiftExtraction.max_image_size",
+        extraction += ["--FeatureExtraction.max_image_size",
                        str(spec["max_image_size"])]
     log(f"== Scene {name}: {knobs}")
     if not os.path.exists(os.path.join(cache, "matched")):
@@ -489,11 +489,11 @@ def prepare_real_scene(name, out_dir):
                  "--image_path", images,
                  "--ImageReader.camera_model", spec["camera_model"],
                  "--ImageReader.single_camera", "1",
-                 "--SiftExtraction.use_gpu", "0"] + extraction,
+                 "--FeatureExtraction.use_gpu", "0"] + extraction,
                 check=True, stdout=log_file, stderr=subprocess.STDOUT)
             subprocess.run(
                 [COLMAP, "exhaustive_matcher", "--database_path", database,
-                 "--SiftMatching.use_gpu", "0"],
+                 "--FeatureMatching.use_gpu", "0"],
                 check=True, stdout=log_file, stderr=subprocess.STDOUT)
         open(os.path.join(cache, "matched"), "w").write("1\n")
     num_images = len(os.listdir(images))
