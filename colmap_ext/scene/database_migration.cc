@@ -146,14 +146,17 @@ void MigrateColmap3Database(const std::string& path) {
     std::filesystem::remove(migrating_path + "-shm");
     throw;
   }
-  // The original keeps its write-ahead log, if a writer left one (the copy
-  // holds what it says): renamed with it, not taken by the migrated file.
+  // The original keeps its write-ahead log where a writer left one in it
+  // (the copy holds what it says): renamed with it, never taken by the
+  // migrated file. An empty log and the shared-memory index, which SQLite
+  // rebuilds, go.
   std::filesystem::rename(path, backup_path);
-  for (const std::string suffix : {"-wal", "-shm"}) {
-    if (ExistsFile(path + suffix)) {
-      std::filesystem::rename(path + suffix, backup_path + suffix);
-    }
+  const std::string wal_path = path + "-wal";
+  if (ExistsFile(wal_path) && std::filesystem::file_size(wal_path) > 0) {
+    std::filesystem::rename(wal_path, backup_path + "-wal");
   }
+  std::filesystem::remove(wal_path);
+  std::filesystem::remove(path + "-shm");
   std::filesystem::rename(migrating_path, path);
   LOG(WARNING) << path << " was written by COLMAP 3: it now has COLMAP 4's "
                << "layout (rigs and frames), which COLMAP 3 cannot read. The "
