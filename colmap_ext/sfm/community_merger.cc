@@ -72,10 +72,12 @@ void JoinReconstructions(
   // with them (frames of them); a rig's other cameras come with it.
   std::unordered_map<camera_t, std::pair<size_t, size_t>> camera_source;
   std::unordered_map<rig_t, std::pair<size_t, size_t>> rig_source;
+  std::vector<std::unordered_map<rig_t, size_t>> num_frames_of_rig(
+      reconstructions.size());
   for (size_t r = 0; r < reconstructions.size(); ++r) {
     const Reconstruction& reconstruction = *reconstructions[r];
     std::unordered_map<camera_t, size_t> num_images_per_camera;
-    std::unordered_map<rig_t, size_t> num_frames_per_rig;
+    std::unordered_map<rig_t, size_t>& num_frames_per_rig = num_frames_of_rig[r];
     for (const frame_t frame_id : reconstruction.RegFrameIds()) {
       if (!takes_frame(r, frame_id)) {
         continue;
@@ -112,6 +114,41 @@ void JoinReconstructions(
       }
     }
     merged->AddRig(rig);
+    // Every community's mapper refined the rig on its own frames, one on
+    // few of them perhaps: the merged rig's sensor poses are the average
+    // of all estimates (in the world frame), weighted by their frames.
+    for (auto& [sensor_id, sensor_from_rig] :
+         merged->Rig(rig_id).NonRefSensors()) {
+      if (!sensor_from_rig) {
+        continue;
+      }
+      const Eigen::Vector4d reference = sensor_from_rig->rotation().coeffs();
+      Eigen::Vector4d rotation_sum = Eigen::Vector4d::Zero();
+      Eigen::Vector3d translation_sum = Eigen::Vector3d::Zero();
+      double weight_sum = 0;
+      for (size_t r = 0; r < reconstructions.size(); ++r) {
+        const auto it = num_frames_of_rig[r].find(rig_id);
+        if (it == num_frames_of_rig[r].end() ||
+            !reconstructions[r]->Rig(rig_id).HasSensorFromRig(sensor_id)) {
+          continue;
+        }
+        const Rigid3d& pose =
+            reconstructions[r]->Rig(rig_id).SensorFromRig(sensor_id);
+        Eigen::Vector4d rotation = pose.rotation().coeffs();
+        if (rotation.dot(reference) < 0) {
+          rotation = -rotation;
+        }
+        const double weight = static_cast<double>(it->second);
+        rotation_sum += weight * rotation;
+        translation_sum += weight * pose.translation();
+        weight_sum += weight;
+      }
+      if (weight_sum > 0) {
+        *sensor_from_rig =
+            Rigid3d(Eigen::Quaterniond(rotation_sum.normalized()),
+                    translation_sum / weight_sum);
+      }
+    }
   }
 
   // Frames and their images, keypoints without points, with their poses.
