@@ -11,7 +11,7 @@
 namespace colmap {
 namespace {
 
-Reconstruction GroundTruth() {
+SyntheticSceneOptions SceneOptions() {
   SyntheticSceneOptions options;
   options.num_clusters = 2;
   options.num_images_per_cluster = 15;
@@ -20,6 +20,10 @@ Reconstruction GroundTruth() {
   options.num_points_per_cluster = 300;
   options.num_points_per_link = 100;
   options.seed = 2;
+  return options;
+}
+
+Reconstruction GroundTruth(const SyntheticSceneOptions& options = SceneOptions()) {
   SyntheticScene scene;
   SynthesizeCommunityScene(options, &scene, /*database=*/nullptr);
   return scene.ground_truth;
@@ -28,20 +32,11 @@ Reconstruction GroundTruth() {
 // The scene above taken by a stereo rig, its second camera 0.3 m to the
 // right of the first, turned right by 2 degrees.
 Reconstruction StereoGroundTruth() {
-  SyntheticSceneOptions options;
-  options.num_clusters = 2;
-  options.num_images_per_cluster = 15;
-  options.num_images_per_link = 10;
-  options.close_loop = false;
-  options.num_points_per_cluster = 300;
-  options.num_points_per_link = 100;
+  SyntheticSceneOptions options = SceneOptions();
   options.num_rig_cameras = 2;
   options.rig_baseline = 0.3;
   options.rig_yaw_deg = 2.0;
-  options.seed = 2;
-  SyntheticScene scene;
-  SynthesizeCommunityScene(options, &scene, /*database=*/nullptr);
-  return scene.ground_truth;
+  return GroundTruth(options);
 }
 
 // The rig's only non-reference camera.

@@ -524,27 +524,35 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
     return two_view_geometry;
   };
 
+  // The keypoints of images idx1 and idx2 that no match of `matches` uses,
+  // each list shuffled.
+  auto shuffled_free_keypoints = [&](const size_t idx1,
+                                     const size_t idx2,
+                                     const FeatureMatches& matches) {
+    std::vector<char> used1(num_keypoints[idx1], 0);
+    std::vector<char> used2(num_keypoints[idx2], 0);
+    for (const FeatureMatch& match : matches) {
+      used1[match.point2D_idx1] = 1;
+      used2[match.point2D_idx2] = 1;
+    }
+    std::pair<std::vector<point2D_t>, std::vector<point2D_t>> free;
+    for (point2D_t i = 0; i < num_keypoints[idx1]; ++i) {
+      if (!used1[i]) free.first.push_back(i);
+    }
+    for (point2D_t i = 0; i < num_keypoints[idx2]; ++i) {
+      if (!used2[i]) free.second.push_back(i);
+    }
+    random.Shuffle(&free.first);
+    random.Shuffle(&free.second);
+    return free;
+  };
+
   // Random one-to-one matches between keypoints not used by `matches`.
   auto add_random_matches = [&](const size_t idx1,
                                 const size_t idx2,
                                 const int num_matches,
                                 FeatureMatches* matches) {
-    std::vector<char> used1(num_keypoints[idx1], 0);
-    std::vector<char> used2(num_keypoints[idx2], 0);
-    for (const FeatureMatch& match : *matches) {
-      used1[match.point2D_idx1] = 1;
-      used2[match.point2D_idx2] = 1;
-    }
-    std::vector<point2D_t> free1;
-    std::vector<point2D_t> free2;
-    for (point2D_t i = 0; i < num_keypoints[idx1]; ++i) {
-      if (!used1[i]) free1.push_back(i);
-    }
-    for (point2D_t i = 0; i < num_keypoints[idx2]; ++i) {
-      if (!used2[i]) free2.push_back(i);
-    }
-    random.Shuffle(&free1);
-    random.Shuffle(&free2);
+    const auto [free1, free2] = shuffled_free_keypoints(idx1, idx2, *matches);
     const size_t num_added =
         std::min<size_t>(num_matches, std::min(free1.size(), free2.size()));
     for (size_t i = 0; i < num_added; ++i) {
@@ -563,22 +571,7 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
     const Image& image1 = reconstruction.Image(image_ids[idx1]);
     const Image& image2 = reconstruction.Image(image_ids[idx2]);
     const Eigen::Matrix3d F = *two_view_geometry_of(idx1, idx2).F;
-    std::vector<char> used1(num_keypoints[idx1], 0);
-    std::vector<char> used2(num_keypoints[idx2], 0);
-    for (const FeatureMatch& match : *matches) {
-      used1[match.point2D_idx1] = 1;
-      used2[match.point2D_idx2] = 1;
-    }
-    std::vector<point2D_t> free1;
-    std::vector<point2D_t> free2;
-    for (point2D_t i = 0; i < num_keypoints[idx1]; ++i) {
-      if (!used1[i]) free1.push_back(i);
-    }
-    for (point2D_t i = 0; i < num_keypoints[idx2]; ++i) {
-      if (!used2[i]) free2.push_back(i);
-    }
-    random.Shuffle(&free1);
-    random.Shuffle(&free2);
+    auto [free1, free2] = shuffled_free_keypoints(idx1, idx2, *matches);
     int num_added = 0;
     for (const point2D_t point2D_idx1 : free1) {
       if (num_added == num_matches) {
