@@ -93,14 +93,14 @@ per method and seed, each compared with the mapper of the same seed, and a
 line per scene gives each method's median over the seeds with its range and
 on how many seeds the bar's checks held.
 
-`--draws N robustness` runs every robustness family (loop, chain and dense,
-each `_clean`, `_noisy` with random wrong matches and `_epipolar` with wrong
-matches that satisfy their pair's geometry, as a real matcher's: FAMILIES
-below) as N draws, scene seeds 1..N,
-and gives one table: community_mapper against the mapper on every draw, and
-per family on how many draws it had one model where the mapper has one,
-every image the mapper registers, a median error at most 1.5x and no worse
-than the mapper's. `--reuse mapper` takes the mapper's runs recorded in OUT
+`--draws N robustness` runs every robustness family (loop, chain, dense and
+walkway, each `_clean`, `_noisy` with random wrong matches and `_epipolar`
+with wrong matches that satisfy their pair's geometry, as a real matcher's:
+FAMILIES below) as N draws, scene seeds 1..N, and gives one table:
+community_mapper against the mapper on every draw, and per family on how
+many draws it had one model where the mapper has one, every image the
+mapper registers, a median error at most 1.5x and no worse than the
+mapper's. `--reuse mapper` takes the mapper's runs recorded in OUT
 by an earlier run (OUT/SCENE/mapper.json) instead of running it again.
 
 `--doc docs/benchmark.md` also writes the Markdown results into that file,
@@ -181,6 +181,11 @@ FAMILIES = {
     "dense": dict(num_clusters=3, num_images_per_cluster=50,
                   num_images_per_link=25, close_loop=1,
                   max_viewing_distance=90),
+    # Loops whose walkways are longer than their landmark clusters (420
+    # images): walkway communities along flat walls, the ones an own mapper
+    # bends or breaks, each the loop's only way round.
+    "walkway": dict(num_clusters=3, num_images_per_cluster=60,
+                    num_images_per_link=80, close_loop=1),
 }
 for family, knobs in FAMILIES.items():
     SCENES[family + "_clean"] = dict(knobs, **CLEAN)
