@@ -472,7 +472,6 @@ bool CommunityMapperController::Merge() {
   summary_.num_view_graph_images = result.num_view_graph_images;
   summary_.num_view_graph_edges = result.num_view_graph_edges;
   summary_.community_reports = result.community_reports;
-  summary_.community_judgements = result.community_judgements;
   summary_.community_excluded = result.community_excluded;
   summary_.extra_community_origins = result.extra_community_origins;
   summary_.community_of_image = result.community_of_image;

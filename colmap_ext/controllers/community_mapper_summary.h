@@ -2,7 +2,7 @@
 // and of OUT/summary.txt.
 #pragma once
 
-#include "colmap_ext/sfm/community_judgement.h"
+#include "colmap_ext/sfm/community_merge.h"
 
 #include "colmap/util/types.h"
 
@@ -23,11 +23,10 @@ struct CommunityMapperSummary {
   std::vector<int> community_sizes;
   // Per community of the merge (the plan's, then the extra communities:
   // other models of a community's mapper, see Merge()): what its mapper
-  // produced, the verdict on its model, and whether it left the merge
-  // (its images were then offered to the merged model, and those it did
-  // not register kept the community's model unless it was broken).
+  // produced, and whether it left the merge (its images and its model were
+  // then offered to the merged model, and those it did not register kept
+  // the community's model).
   std::vector<CommunityModelReport> community_reports;
-  std::vector<CommunityJudgement> community_judgements;
   std::vector<bool> community_excluded;
   // The plan's community each extra community comes from.
   std::vector<int> extra_community_origins;

@@ -142,7 +142,6 @@ bool CommunityMergeOptions::Check() const {
   CHECK_OPTION(pairwise_similarity.Check());
   CHECK_OPTION(covisibility_check.Check());
   CHECK_OPTION_GE(rejected_link_max_drift_factor, 1.0);
-  CHECK_OPTION(judgement.Check());
   CHECK_OPTION(similarity_averaging.Check());
   CHECK_OPTION(refinement.Check());
   CHECK_OPTION(incremental_options.Check());
@@ -236,23 +235,10 @@ void CommunityMerge::ReadCommunityModels() {
 void CommunityMerge::AverageSimilarities() {
   THROW_CHECK_EQ(num_phases_done_, 1) << "EstimateSimilarities() first";
   const int num_communities = static_cast<int>(models_.size());
-  result_.community_judgements =
-      JudgeCommunityModels(result_.community_reports, options_.judgement);
   std::vector<AveragedCommunity> averaged_communities(num_communities);
   for (int c = 0; c < num_communities; ++c) {
-    const CommunityJudgement& judgement = result_.community_judgements[c];
     averaged_communities[c].num_images =
         result_.community_reports[c].num_registered;
-    averaged_communities[c].doubtful = judgement.doubtful;
-    averaged_communities[c].excluded = judgement.broken;
-    if (judgement.broken || judgement.doubtful) {
-      LOG(WARNING) << StringPrintf(
-          "Community %d is %s (%s)%s",
-          c,
-          judgement.broken ? "broken" : "in doubt",
-          judgement.reason.c_str(),
-          judgement.broken ? "" : ": it takes part with little weight.");
-    }
   }
   const std::vector<RelativeSimilarity>& similarities =
       similarities_.similarities;
@@ -296,44 +282,20 @@ void CommunityMerge::AverageSimilarities() {
 }
 
 // Communities that the averaging sent out of the merge lose their model
-// here (their images are offered to the merged models). Those whose model
-// is not broken are set aside: they keep the images no merged model
-// registers (MergeParts). Those of them in doubt that left for want of a
-// link their shared images confirm (no evidence against their model,
-// unlike links that disagree: such a model may be bent) are unconfirmed:
-// their models may join as blocks.
+// here and are set aside: their images are offered to the merged models,
+// their models too, as blocks where they fit (block_registration.h), and
+// they keep the images no merged model registers (MergeParts).
 void CommunityMerge::SetAsideExcludedCommunities() {
-  const std::vector<RelativeSimilarity>& similarities =
-      similarities_.similarities;
   for (int c = 0; c < static_cast<int>(models_.size()); ++c) {
     if (!averaging_.excluded[c]) {
       continue;
     }
-    bool unconfirmed = false;
-    for (size_t e = 0; e < similarities.size(); ++e) {
-      unconfirmed = unconfirmed || ((similarities[e].community1 == c ||
-                                     similarities[e].community2 == c) &&
-                                    averaging_.edges[e].unconfirmed);
-    }
-    const CommunityJudgement& judgement = result_.community_judgements[c];
     LOG(WARNING) << StringPrintf(
-        "Community %d leaves the merge: %s. Its images are offered to the "
-        "merged model.",
-        c,
-        judgement.broken ? "its model is broken"
-        : judgement.doubtful
-            ? (unconfirmed ? "nothing confirms its similarities and its "
-                             "model is in doubt"
-                           : "its similarities disagree with the other "
-                             "communities' and its model is in doubt")
-            : "its similarities disagree with the other communities' and "
-              "it is small");
-    if (!judgement.broken) {
-      set_aside_communities_.push_back(c);
-      if (unconfirmed && judgement.doubtful) {
-        unconfirmed_communities_.push_back(c);
-      }
-    }
+        "Community %d leaves the merge: its similarities disagree with the "
+        "other communities' and it is small. Its images and its model are "
+        "offered to the merged model.",
+        c);
+    set_aside_communities_.push_back(c);
     models_[c].reset();
   }
 }
@@ -369,7 +331,7 @@ void CommunityMerge::MergeParts() {
   const PartOffers offers = PlanPartOffers(averaging_.part_of_community,
                                            has_model,
                                            cross_edges_,
-                                           unconfirmed_communities_);
+                                           set_aside_communities_);
   // By part: the names of the images offered to it.
   std::map<int, std::unordered_set<std::string>> extra_image_names_of_part;
   for (const auto& part_and_communities : offers.image_communities_of_part) {
@@ -503,7 +465,7 @@ void CommunityMerge::MergeParts() {
 
   // A community that left the merge keeps the images nobody registered as
   // a model of its own, if there are as many as the incremental mapper
-  // keeps in a model (Mapper.min_model_size): it was in doubt or small.
+  // keeps in a model (Mapper.min_model_size): it was small.
   for (const int c : set_aside_communities_) {
     std::shared_ptr<Reconstruction> model =
         LeftModel(c, /*model=*/nullptr, registered_image_ids);
@@ -534,8 +496,8 @@ void CommunityMerge::MergeParts() {
 // images in `taken_image_ids` (registered by an earlier part's model) are
 // left out. `offered_models` are the models (their own images only) of the
 // communities of parts offered to this one and of those offered to it
-// that left the merge for want of a confirmed link, which the refinement
-// registers as blocks where it can. The communities' own models are
+// that left the merge, which the refinement registers as blocks where it
+// can. The communities' own models are
 // consumed. Adds the seconds spent in the refinement to the result's.
 std::shared_ptr<Reconstruction> CommunityMerge::MergePart(
     const std::vector<int>& part_communities,

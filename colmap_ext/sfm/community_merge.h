@@ -10,9 +10,8 @@
 // are transformed and joined, their corresponding points merged, and the
 // joined model is refined by bundle adjustment (community_merger.h).
 //
-// The merge judges what it merges (docs/design.md):
-//   - a community whose model is broken leaves the merge, one in doubt
-//     counts little in the averaging (community_judgement.h);
+// The merge judges its communities by their links alone, not by their own
+// models' statistics (docs/design.md):
 //   - a similarity that does not explain which images were matched is
 //     rejected (covisibility_check.h); one the averaging places within its
 //     bounds all the same is confirmed, and its image pairs stay;
@@ -21,14 +20,13 @@
 //   - the images of parts that no kept link joins to a larger one, and of
 //     communities that left the merge, are offered to the larger part's
 //     refinement, which registers them (a community's model as one block
-//     where it can); those nobody registers keep their community's model,
+//     where it fits); those nobody registers keep their community's model,
 //     so no image is written in two models.
 #pragma once
 
 #include "colmap_ext/graph/view_graph.h"
 #include "colmap_ext/scene/community_workspace.h"
 #include "colmap_ext/sfm/community_alignment.h"
-#include "colmap_ext/sfm/community_judgement.h"
 #include "colmap_ext/sfm/community_merger.h"
 #include "colmap_ext/sfm/covisibility_check.h"
 #include "colmap_ext/sfm/pairwise_similarity.h"
@@ -44,6 +42,22 @@
 #include <vector>
 
 namespace colmap {
+
+// What the incremental mapper of a community produced.
+struct CommunityModelReport {
+  // Images given to the mapper (its own and those it borrowed).
+  int num_images = 0;
+  // Registered images of the model that takes part in the merge (the
+  // largest; 0 if there is none).
+  int num_registered = 0;
+  // Models the mapper made.
+  int num_models = 0;
+  // Mean reprojection error of the model that takes part (pixels).
+  double mean_reprojection_error = 0.0;
+  // Which of the mapper's models takes part: 1 for the largest, 2 for the
+  // second largest (an extra community), ...
+  int model_index = 1;
+};
 
 struct CommunityMergeOptions {
   // The database the communities were reconstructed from (view graph,
@@ -85,9 +99,6 @@ struct CommunityMergeOptions {
   // (the number of links on a path), at most by this factor.
   double rejected_link_max_drift_factor = 1.5;
 
-  // What makes a community's own model doubtful or broken.
-  CommunityJudgementOptions judgement;
-
   // Global similarity averaging and the links it keeps.
   SimilarityAveragingOptions similarity_averaging;
 
@@ -106,10 +117,9 @@ struct CommunityMergeResult {
   // The merged models, largest first.
   std::vector<std::shared_ptr<Reconstruction>> models;
   // Per community of the merge (the plan's, then the extra communities:
-  // other models of a community's mapper): what its mapper produced, the
-  // verdict on its model, and whether it left the merge.
+  // other models of a community's mapper): what its mapper produced, and
+  // whether it left the merge.
   std::vector<CommunityModelReport> community_reports;
-  std::vector<CommunityJudgement> community_judgements;
   std::vector<bool> community_excluded;
   // The plan's community each extra community comes from.
   std::vector<int> extra_community_origins;
@@ -160,11 +170,10 @@ class CommunityMerge {
   // images were matched (community_alignment.h).
   void EstimateSimilarities();
 
-  // Judges every community's own model (a broken one leaves the merge, one
-  // in doubt counts little), averages the similarities into one per
-  // community and keeps the links that agree with it (similarity_averaging.h);
-  // confirms rejected links the averaging places within their bounds
-  // (link_confirmation.h). Communities that left are set aside.
+  // Averages the similarities into one per community and keeps the links
+  // that agree with it (similarity_averaging.h); confirms rejected links
+  // the averaging places within their bounds (link_confirmation.h).
+  // Communities that left are set aside.
   void AverageSimilarities();
 
   // Joins the communities of every part into one model, merges their
@@ -209,13 +218,11 @@ class CommunityMerge {
   CommunitySimilarities similarities_;
 
   // AverageSimilarities(): the placement and links kept, the image pairs
-  // the refinement leaves out, the communities that left the merge whose
-  // models are not broken (set aside), and those of them that left for want
-  // of a confirmed link (unconfirmed), which may join as blocks.
+  // the refinement leaves out, and the communities that left the merge (set
+  // aside), which may join as blocks.
   SimilarityAveragingResult averaging_;
   std::unordered_set<image_pair_t> false_pairs_;
   std::vector<int> set_aside_communities_;
-  std::vector<int> unconfirmed_communities_;
 
   CommunityMergeResult result_;
   // How many of the three phases ran.

@@ -129,26 +129,26 @@ TEST_F(MergeCommunitiesTest, CommunitiesInFramesOfTheirOwnMergeIntoOneModel) {
   EXPECT_LT(evaluation.median_rotation_error_deg, 0.1);
 }
 
-// A community whose mapper reports a reprojection error far above the
-// others' is broken: it leaves the merge, and the merged model registers
-// its images one by one, so that one model still holds every image.
-TEST_F(MergeCommunitiesTest, BrokenCommunityLeavesAndItsImagesAreRegistered) {
+// A community is judged by its links, not by its own model's statistics:
+// one whose mapper reports a reprojection error far above the others' but
+// whose links agree with the rest takes part whole, at its place.
+TEST_F(MergeCommunitiesTest, CommunityWithLargeOwnErrorsStaysWhole) {
   for (int c = 0; c < plan_.NumCommunities(); ++c) {
     WriteCommunity(c, FrameOf(c), /*reprojection_error=*/c == 1 ? 5.0 : 0.5);
   }
   const CommunityMergeResult result =
       MergeCommunities(options_, plan_, *workspace_);
-  ASSERT_EQ(result.community_judgements.size(), plan_.NumCommunities());
-  EXPECT_TRUE(result.community_judgements[1].broken);
-  EXPECT_TRUE(result.community_excluded[1]);
-  EXPECT_FALSE(result.community_excluded[0]);
+  for (const bool excluded : result.community_excluded) {
+    EXPECT_FALSE(excluded);
+  }
+  EXPECT_EQ(result.num_kept_similarities, result.num_estimated_similarities);
   ASSERT_EQ(result.models.size(), 1);
   EXPECT_EQ(result.models[0]->NumRegImages(),
             scene_.ground_truth.NumRegImages());
   const ModelEvaluation evaluation =
       EvaluateModel(*result.models[0], scene_.ground_truth);
   ASSERT_TRUE(evaluation.aligned);
-  EXPECT_LT(evaluation.median_position_error, 0.01 * evaluation.extent);
+  EXPECT_LT(evaluation.median_position_error, 1e-3 * evaluation.extent);
 }
 
 // Communities that share no kept similarity are written as models apart,

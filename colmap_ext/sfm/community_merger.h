@@ -83,8 +83,8 @@ struct MergedModelRefinementOptions {
 
   // Models of communities whose images are offered to this refinement
   // (parts that no kept similarity joins to this one, communities that left
-  // the merge without being broken) are registered as one block each,
-  // through the images the merged model registers in common with them
+  // the merge) are registered as one block each, through the images the
+  // merged model registers in common with them
   // (block_registration.h), instead of image by image; their images the
   // block does not hold are still registered one by one. Part of the
   // registration above: off with it. A block keeps the shape the

@@ -21,7 +21,7 @@ int MostCounted(const std::map<int, size_t>& counts) {
 PartOffers PlanPartOffers(const std::vector<int>& part_of_community,
                           const std::vector<bool>& has_model,
                           const CrossEdges& cross_edges,
-                          const std::vector<int>& unconfirmed_communities) {
+                          const std::vector<int>& left_communities) {
   THROW_CHECK_EQ(part_of_community.size(), has_model.size());
   const int num_communities = static_cast<int>(has_model.size());
   PartOffers offers;
@@ -42,9 +42,9 @@ PartOffers PlanPartOffers(const std::vector<int>& part_of_community,
     const int community = community_and_counts.first;
     const int best_part = MostCounted(community_and_counts.second);
     offers.image_communities_of_part[best_part].push_back(community);
-    if (std::find(unconfirmed_communities.begin(),
-                  unconfirmed_communities.end(),
-                  community) != unconfirmed_communities.end()) {
+    if (std::find(left_communities.begin(),
+                  left_communities.end(),
+                  community) != left_communities.end()) {
       offers.model_communities_of_part[best_part].push_back(community);
     }
   }

@@ -22,9 +22,8 @@
 //
 // With the images go the community models that may join as one block
 // (block_registration.h): those of offered parts, and those of communities
-// that left the merge for want of a link their shared images confirm (no
-// evidence against the model, unlike links that disagree: such a model may
-// be bent).
+// that left the merge (the block's own check tells whether the model fits
+// where the refinement registered its first images).
 
 #pragma once
 
@@ -45,11 +44,11 @@ struct PartOffers {
 
 // `part_of_community[c]` is community c's part (used only where
 // `has_model[c]`); `cross_edges` the view-graph edges between communities;
-// `unconfirmed_communities` those without a model (any more) that left the
-// merge for want of a confirmed link, whose models are offered too.
+// `left_communities` those without a model any more, which left the merge:
+// their models are offered too.
 PartOffers PlanPartOffers(const std::vector<int>& part_of_community,
                           const std::vector<bool>& has_model,
                           const CrossEdges& cross_edges,
-                          const std::vector<int>& unconfirmed_communities);
+                          const std::vector<int>& left_communities);
 
 }  // namespace colmap

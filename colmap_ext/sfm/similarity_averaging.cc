@@ -312,8 +312,7 @@ double BoundsExcess(const SimilarityAveragingResult::EdgeReport& report,
 // squares solution for the part's nodes. If some edges beyond the bounds
 // are confirmed and others not, `deferred` receives the confirmed ones: they
 // are judged again once the others are out.
-bool SpreadCycleDrift(const std::vector<AveragedCommunity>& communities,
-                      const std::vector<int>& nodes,
+bool SpreadCycleDrift(const std::vector<int>& nodes,
                       const std::vector<const RelativeSimilarity*>& edges,
                       const int reference,
                       const SimilarityAveragingOptions& options,
@@ -327,8 +326,6 @@ bool SpreadCycleDrift(const std::vector<AveragedCommunity>& communities,
       continue;
     }
     const bool confirmed =
-        !communities[edge->community1].doubtful &&
-        !communities[edge->community2].doubtful &&
         SharedImagesConfirm(*edge,
                             options.min_num_confirming_shared_images,
                             /*max_num_disagreeing=*/0) &&
@@ -433,9 +430,7 @@ SimilarityAveragingResult AverageSimilarities(
   std::vector<double> community_weights(num_communities);
   std::vector<int> sizes;
   for (int c = 0; c < num_communities; ++c) {
-    community_weights[c] =
-        std::max(1, communities[c].num_images) *
-        (communities[c].doubtful ? options.doubtful_weight : 1.0);
+    community_weights[c] = std::max(1, communities[c].num_images);
     sizes.push_back(communities[c].num_images);
   }
   const double median_size =
@@ -464,17 +459,12 @@ SimilarityAveragingResult AverageSimilarities(
   result.world_from_community.assign(num_communities, Sim3d());
   result.edges.resize(relative_similarities.size());
   result.excluded.assign(num_communities, false);
-  for (int c = 0; c < num_communities; ++c) {
-    result.excluded[c] = communities[c].excluded;
-  }
   for (size_t e = 0; e < relative_similarities.size(); ++e) {
     const RelativeSimilarity& edge = relative_similarities[e];
     result.edges[e].contradicted =
         IsEdgeInDoubt(edge, options) &&
         NumSharedImagesPlacedElsewhere(edge) >= edge.num_agreeing_shared_images;
-    result.edges[e].kept = !result.excluded[edge.community1] &&
-                           !result.excluded[edge.community2] &&
-                           !result.edges[e].contradicted;
+    result.edges[e].kept = !result.edges[e].contradicted;
   }
 
   const auto CountKeptEdges = [&]() {
@@ -556,8 +546,7 @@ SimilarityAveragingResult AverageSimilarities(
         failed = failed || !edge_indices.empty();
       } else if (options.spread_cycle_drift) {
         std::vector<const RelativeSimilarity*> deferred_edges;
-        if (SpreadCycleDrift(communities,
-                             nodes,
+        if (SpreadCycleDrift(nodes,
                              edges,
                              reference,
                              options,
@@ -627,41 +616,20 @@ SimilarityAveragingResult AverageSimilarities(
           community_weights[community1] <= community_weights[community2]
               ? community1
               : community2;
-      if (communities[weaker].doubtful ||
-          communities[weaker].num_images <
-              options.min_relative_size * median_size) {
+      if (communities[weaker].num_images <
+          options.min_relative_size * median_size) {
         to_exclude.push_back(weaker);
       }
     }
-    // A small or doubtful community that is left with fewer than two kept
-    // edges has nothing that confirms its own model against the rejected
-    // edge: it leaves. With two or more, the others agree on where it is and
-    // the rejected similarity was the odd one out.
-    std::vector<int> num_kept_edges = CountKeptEdges();
+    // A small community that is left with fewer than two kept edges has
+    // nothing that confirms its own model against the rejected edge (it may
+    // be a short piece bent inside itself, which one edge cannot check): it
+    // leaves. With two or more, the others agree on where it is and the
+    // rejected similarity was the odd one out.
+    const std::vector<int> num_kept_edges = CountKeptEdges();
     for (const int community : to_exclude) {
       if (num_kept_edges[community] >= 2) {
         continue;
-      }
-      // A community in doubt but not small whose one kept edge its shared
-      // images all confirm (at least min_num_confirming_shared_images,
-      // none placed elsewhere) is anchored by them, not by the rejected
-      // edge's similarity alone. (A small one may be a short piece bent
-      // inside itself, which one edge cannot check.)
-      if (options.reject_worst_first && num_kept_edges[community] == 1 &&
-          communities[community].num_images >=
-              options.min_relative_size * median_size) {
-        bool confirmed = false;
-        for (size_t e = 0; e < relative_similarities.size(); ++e) {
-          const RelativeSimilarity& edge = relative_similarities[e];
-          if (result.edges[e].kept &&
-              (edge.community1 == community || edge.community2 == community)) {
-            confirmed = SharedImagesConfirm(
-                edge, options.min_num_confirming_shared_images, 0);
-          }
-        }
-        if (confirmed) {
-          continue;
-        }
       }
       result.excluded[community] = true;
       for (size_t e = 0; e < relative_similarities.size(); ++e) {
@@ -684,27 +652,22 @@ SimilarityAveragingResult AverageSimilarities(
     // the true similarity), no shared image, and passed the co-visibility check
     // (cross rate 0.23 against 0.94 inside). Kept, it misplaced that
     // community's 22 images (90th-percentile error 6.35, extent 11).
-    std::vector<int> unconfirmed_communities;
+    bool dropped_bridge = false;
     for (size_t e = 0; e < relative_similarities.size(); ++e) {
       const RelativeSimilarity& edge = relative_similarities[e];
       if (!result.edges[e].kept) {
         continue;
       }
-      // Between models not in doubt, full support stands in for the shared
-      // images where there are few, and a minority of them placed elsewhere
-      // (borrowed images at the edge of a drifting community: on a
-      // generated open chain, 2 of 6 just over a spread off) does not veto
-      // the edge. A model in doubt may misplace one image, but a wrong
-      // similarity can agree with several images it misplaced together (on
-      // South Building, 3 of 6 alike).
-      const bool in_doubt = communities[edge.community1].doubtful ||
-                            communities[edge.community2].doubtful;
+      // Full support stands in for the shared images where there are few,
+      // and a minority of them placed elsewhere (borrowed images at the edge
+      // of a drifting community: on a generated open chain, 2 of 6 just over
+      // a spread off) does not veto the edge.
       const bool full_support =
-          !in_doubt && edge.num_inliers >= options.full_support_num_inliers;
+          edge.num_inliers >= options.full_support_num_inliers;
       const int min_num_agreeing =
           full_support ? 0 : options.min_num_shared_images_on_bridge;
       const int max_num_disagreeing =
-          in_doubt ? 1 : std::max(1, edge.num_agreeing_shared_images - 1);
+          std::max(1, edge.num_agreeing_shared_images - 1);
       if (SharedImagesConfirm(edge, min_num_agreeing, max_num_disagreeing)) {
         continue;
       }
@@ -720,19 +683,11 @@ SimilarityAveragingResult AverageSimilarities(
       if (labels[edge.community1] != labels[edge.community2]) {
         result.edges[e].kept = false;
         result.edges[e].unconfirmed = true;
-        unconfirmed_communities.push_back(edge.community1);
-        unconfirmed_communities.push_back(edge.community2);
+        dropped_bridge = true;
       }
     }
-    if (unconfirmed_communities.empty()) {
+    if (!dropped_bridge) {
       break;
-    }
-    // A community in doubt that no kept edge joins any more leaves.
-    num_kept_edges = CountKeptEdges();
-    for (const int community : unconfirmed_communities) {
-      if (communities[community].doubtful && num_kept_edges[community] == 0) {
-        result.excluded[community] = true;
-      }
     }
   }
 

@@ -16,14 +16,16 @@
 //      T_ij = median(s_j R_j X_j - s_i R_i X_i), then
 //      min sum_ij |T_i - T_j - T_ij|_1  (per coordinate).
 // Every edge counts with a confidence: the weight of its weaker community
-// (its registered images, a tenth of that if its own model is in doubt),
-// scaled down if the edge has few inliers, mapped to [0.6, 1] so that a
+// (its registered images), scaled down if the edge has few inliers or its
+// shared images are in doubt (below), mapped to [0.6, 1] so that a
 // majority of right edges around a community still outweighs a minority of
 // wrong ones. On a cycle that does not close, weighted L1 averaging puts
 // the whole disagreement on the least confident edge instead of spreading
 // it over all (every spread has the same unweighted L1 cost), so the fault
-// is found where it most likely is: in a small or doubtful community, or a
-// weakly supported similarity.
+// is found where it most likely is: in a small community, or a weakly
+// supported similarity. A community is judged by its edges alone, never by
+// its own model's statistics: a community bent by drift fits its own
+// observations as well as any.
 //
 // Afterwards, edges whose residuals stay large (rotation, scale ratio, or
 // translation relative to the spread of the edge's correspondences) are
@@ -36,18 +38,17 @@
 // (every edge alike, translations in units of their spreads), which spreads
 // a long loop's gap over all its edges; if that brings every edge within
 // the bounds, that solution stands (`spread_cycle_drift`). The weaker
-// community of a rejected edge leaves the merge altogether if its model is
-// in doubt or it is small and fewer than two kept edges confirm it (its
-// images can still be registered into the merged model later): a community
-// that drifts or broke inside itself cannot be aligned to all its
-// neighbours by one similarity, and keeping it by its last edge would bend
-// the merged model. An edge that lies on no cycle of kept edges (a bridge)
-// has zero residuals whatever it is worth: it is kept only if the images
-// both communities registered confirm it, at least two of them placed alike
-// by the two models under its similarity and at most one not. Between two
-// communities not in doubt, full support (many inliers) stands in for the
-// images placed alike, and fewer placed elsewhere than alike do not veto
-// it. Right links place all their shared images alike but for single
+// community of a rejected edge leaves the merge altogether if it is small
+// and fewer than two kept edges confirm it (its images and its model can
+// still join the merged model later): a community that drifts or broke
+// inside itself cannot be aligned to all its neighbours by one similarity,
+// and keeping it by its last edge would bend the merged model. An edge that
+// lies on no cycle of kept edges (a bridge) has zero residuals whatever it
+// is worth: it is kept only if the images both communities registered
+// confirm it, at least two of them placed alike by the two models under its
+// similarity and at most one not; full support (many inliers) stands in
+// for the images placed alike, and fewer placed elsewhere than alike do not
+// veto it. Right links place all their shared images alike but for single
 // borrowed images placed wrongly by one model, while the wrong bridges
 // measured placed half of theirs elsewhere or had none (docs/design.md). If
 // the kept edges no longer connect all communities, every connected part
@@ -79,13 +80,9 @@ namespace colmap {
 
 // A community as the averaging sees it.
 struct AveragedCommunity {
-  // Registered images of its model. The largest community of each part is
-  // the part's reference.
+  // Registered images of its model: its weight. The largest community of
+  // each part is the part's reference.
   int num_images = 0;
-  // Whether its own model is in doubt (see community_judgement.h).
-  bool doubtful = false;
-  // Whether it is left out from the start (its edges are not used).
-  bool excluded = false;
 };
 
 struct SimilarityAveragingOptions {
@@ -108,16 +105,14 @@ struct SimilarityAveragingOptions {
 
   // Each round rejects only the edge of each part that is beyond the bounds
   // by the largest factor (wrong edges distort the averaging, so that right
-  // ones next to them can look wrong until they are out), and a community in
-  // doubt but not small whose one remaining edge all its shared images
-  // confirm (at least min_num_confirming_shared_images) stays; there are then
-  // as many rounds as edges, at most (but 0 still keeps every edge). False:
+  // ones next to them can look wrong until they are out); there are then as
+  // many rounds as edges, at most (but 0 still keeps every edge). False:
   // every edge beyond the bounds goes at once.
   bool reject_worst_first = true;
 
   // Drift on a long cycle: where the L1 averaging of a part leaves edges
-  // beyond the bounds above, but each of them joins two communities not in
-  // doubt and is confirmed by the images both registered (at least
+  // beyond the bounds above, but each of them is confirmed by the images
+  // both of its communities registered (at least
   // `min_num_confirming_shared_images`, every one placed alike under its
   // similarity, and the farthest apart within the rotation and translation
   // bounds above), the part's scales and translations are averaged again in
@@ -137,9 +132,8 @@ struct SimilarityAveragingOptions {
   bool spread_cycle_drift = true;
   int min_num_confirming_shared_images = 2;
 
-  // The weight of a community whose model is in doubt, as a fraction of its
-  // registered images, and of an edge in doubt (see
-  // min_num_contradicting_shared_images) as a fraction of its weight.
+  // The weight of an edge in doubt (see min_num_contradicting_shared_images)
+  // as a fraction of its weight.
   double doubtful_weight = 0.1;
 
   // An edge with fewer inliers than this counts with its weaker
@@ -147,9 +141,9 @@ struct SimilarityAveragingOptions {
   // bridge needs its shared images to confirm it, see below).
   double full_support_num_inliers = 100;
 
-  // The weaker community of a rejected edge leaves the merge if its model is
-  // in doubt or it has fewer registered images than this fraction of the
-  // median community's.
+  // The weaker community of a rejected edge leaves the merge if it has fewer
+  // registered images than this fraction of the median community's (and
+  // fewer than two kept edges).
   double min_relative_size = 0.5;
 
   // An edge is in doubt when at least this many of the images both
@@ -163,9 +157,8 @@ struct SimilarityAveragingOptions {
   // An edge that lies on no cycle of kept edges (a bridge) is dropped unless
   // at least this many of the images both communities registered are placed
   // alike by the two models under its similarity and at most one is not
-  // (between two communities not in doubt, `full_support_num_inliers`
-  // inliers stand in for the former, and fewer placed elsewhere than alike
-  // are allowed).
+  // (`full_support_num_inliers` inliers stand in for the former, and fewer
+  // placed elsewhere than alike are then allowed).
   int min_num_shared_images_on_bridge = 2;
 
   bool Check() const;
@@ -178,9 +171,8 @@ struct SimilarityAveragingResult {
     double relative_translation_residual = 0.0;
     // Whether the edge joins its communities in the result.
     bool kept = false;
-    // Dropped because nothing confirms it: it joins a community in doubt,
-    // no cycle of kept edges passes through it, and its shared images
-    // disagree or are too few.
+    // Dropped because nothing confirms it: no cycle of kept edges passes
+    // through it, and its shared images disagree or are too few.
     bool unconfirmed = false;
     // Left out from the start: its shared images contradict it (see
     // min_num_contradicting_shared_images).
