@@ -147,8 +147,7 @@ std::vector<CommunityMapperOption> CommunityMapperOptionTable(
       {"ba_function_tolerance",
        &refinement.function_tolerance,
        "the merged model's bundle adjustments stop once an iteration gains "
-       "less than this fraction of the cost (the last one: "
-       "Mapper.ba_global_function_tolerance)",
+       "less than this fraction of the cost",
        false,
        kAdvanced},
       {"ba_max_refinement_change",

@@ -891,13 +891,8 @@ void MergedModelRefiner::AdjustLastTime() {
         final_max_reproj_error,
         options_.final_filter_noise_multiple);
   }
-  // It converges as the incremental mapper's global adjustments do
-  // (--Mapper.ba_global_function_tolerance): the rounds' early stop leaves
-  // the cameras where the last few iterations would still move them.
   MergedModelRefinementOptions full_options = options_;
   full_options.reduced_adjustment = false;
-  full_options.function_tolerance =
-      mapper_options_.ba_global_function_tolerance;
   AdjustGlobalBundle(ba_options_,
                      full_options,
                      observation_manager_.get(),

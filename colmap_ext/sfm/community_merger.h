@@ -194,13 +194,12 @@ struct MergedModelRefinementOptions {
   TrackSelectionOptions track_selection;
   int max_points_per_problem = 50000;
 
-  // The bundle adjustments of the rounds stop once an iteration lowers the
-  // cost by less than this fraction. The joined communities are each
-  // optimal already, so the merged model converges in a few iterations;
-  // COLMAP's default (0: run to --Mapper.ba_global_max_num_iterations)
-  // spends most of its time on changes below a millionth of the cost: 1e-6
-  // takes under a quarter of its time (docs/design.md). The last adjustment
-  // converges as the mapper's (--Mapper.ba_global_function_tolerance).
+  // The bundle adjustments stop once an iteration lowers the cost by less
+  // than this fraction. The joined communities are each optimal already, so
+  // the merged model converges in a few iterations; COLMAP's default (0:
+  // run to --Mapper.ba_global_max_num_iterations) spends most of its time
+  // on changes below a millionth of the cost: 1e-6 takes under a quarter of
+  // its time for a slightly larger camera error (docs/design.md).
   double function_tolerance = 1e-6;
 
   // Initial Levenberg-Marquardt trust region radius of the bundle
