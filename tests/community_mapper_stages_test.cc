@@ -459,16 +459,18 @@ TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
   const std::string without_log = merge("largest-only", /*keep_second=*/false);
   EXPECT_GE(NumNewlyRegistered(without_log), num_second_own / 2) << without_log;
 
-  // Where nothing confirms the second model's links (here: bridges need
-  // more shared images than any link has), they are dropped and it is a
-  // part of its own; its model still joins, as a block through a few of its
-  // images registered one by one, into one model as accurate (the merge
-  // stage in this process, with that setting).
+  // Where nothing confirms the links of bridges (here: they need more
+  // shared images than any link has, and no number of inliers stands in),
+  // they are dropped and their communities are parts of their own; their
+  // models still join, as blocks through a few of their images registered
+  // one by one, into one model as accurate (the merge stage in this
+  // process, with those settings).
   merge("second-model-unconfirmed", /*keep_second=*/true);
   CommunityMergeOptions options;
   options.database_path = DatabasePath().string();
   options.incremental_options.num_threads = 1;
   options.similarity_averaging.min_num_shared_images_on_bridge = 1000;
+  options.similarity_averaging.full_support_num_inliers = 1e9;
   const CommunityMergeResult unconfirmed_result = MergeCommunities(
       options,
       plan,
