@@ -110,8 +110,6 @@ void AddExtraCommunities(const CommunityWorkspace& workspace,
     communities->own_image_ids.push_back(std::move(owned_image_ids));
     CommunityModelReport report = result->community_reports[c];
     report.num_registered = static_cast<int>(other_model->NumRegImages());
-    report.mean_reprojection_error =
-        other_model->ComputeMeanReprojectionError();
     report.model_index = index + 1;
     result->community_reports.push_back(report);
     result->extra_community_origins.push_back(c);
@@ -208,10 +206,8 @@ void CommunityMerge::ReadCommunityModels() {
         ReadTextFile(workspace_.CommunityRecordPath(c))));
     const CommunityRecord& record = records.back();
     CommunityModelReport& report = result_.community_reports[c];
-    report.num_images = record.num_images;
     report.num_registered = record.num_registered;
     report.num_models = record.num_models;
-    report.mean_reprojection_error = record.mean_reprojection_error;
     model_paths_.push_back(workspace_.CommunityModelPath(c));
     if (record.num_registered > 0) {
       models_[c] = std::make_shared<Reconstruction>();
@@ -497,8 +493,8 @@ void CommunityMerge::MergeParts() {
 // left out. `offered_models` are the models (their own images only) of the
 // communities of parts offered to this one and of those offered to it
 // that left the merge, which the refinement registers as blocks where it
-// can. The communities' own models are
-// consumed. Adds the seconds spent in the refinement to the result's.
+// can. The communities' own models are consumed. Adds the seconds spent in
+// the refinement to the result's.
 std::shared_ptr<Reconstruction> CommunityMerge::MergePart(
     const std::vector<int>& part_communities,
     const std::unordered_set<std::string>& extra_image_names,

@@ -43,17 +43,14 @@
 
 namespace colmap {
 
-// What the incremental mapper of a community produced.
+// What the incremental mapper of a community produced, for the run's
+// summary (the merge judges a community by its links, not by these).
 struct CommunityModelReport {
-  // Images given to the mapper (its own and those it borrowed).
-  int num_images = 0;
   // Registered images of the model that takes part in the merge (the
   // largest; 0 if there is none).
   int num_registered = 0;
   // Models the mapper made.
   int num_models = 0;
-  // Mean reprojection error of the model that takes part (pixels).
-  double mean_reprojection_error = 0.0;
   // Which of the mapper's models takes part: 1 for the largest, 2 for the
   // second largest (an extra community), ...
   int model_index = 1;
