@@ -5,7 +5,6 @@ photographs.
 
     scripts/benchmark.py [--quick] [--out OUT] [--methods M,...]
                          [--seeds S,...] [--draws N] [--reuse M,...]
-                         [--community_flags FLAGS]
                          [--doc PATH] [SCENE ...]
 
 Scenes (default: small medium):
@@ -268,9 +267,6 @@ GROUPS = {
     "robustness": [family + suffix for family in FAMILIES
                    for suffix in ("_clean", "_noisy", "_epipolar")],
 }
-
-# --community_flags, for every run of community_mapper.
-COMMUNITY_FLAGS = []
 
 METHODS = ["mapper", "community", "hierarchical", "hier_fair", "global"]
 LABELS = {
@@ -630,8 +626,7 @@ def run_methods(name, scene_dir, database, images, ground_truth, num_images,
                 ["--Mapper.num_threads", str(threads)]
         elif method == "community":
             command = [COLMAP, "community_mapper"] + common + \
-                REAL.get(name, {}).get("community_flags", []) + \
-                COMMUNITY_FLAGS
+                REAL.get(name, {}).get("community_flags", [])
         elif method == "hierarchical":
             command = [COLMAP, "hierarchical_mapper"] + common
         elif method == "global":
@@ -1147,9 +1142,6 @@ def main():
                         "NAME_s1 ... NAME_sN, and give the robustness table "
                         "(community_mapper against mapper on every draw) "
                         "instead of a table per scene")
-    parser.add_argument("--community_flags", default="", metavar="FLAGS",
-                        help="more flags for colmap community_mapper, one "
-                        "string (e.g. \"--CommunityMapper.image_overlap 5\")")
     parser.add_argument("--reuse", default="", metavar="M,...",
                         help="methods whose earlier runs on a scene, "
                         "recorded in OUT, are taken instead of run again "
@@ -1165,7 +1157,6 @@ def main():
     if "community" not in methods:
         methods.append("community")
     methods = [method for method in METHODS if method in methods]
-    COMMUNITY_FLAGS.extend(shlex.split(arguments.community_flags))
     reuse = [method for method in arguments.reuse.split(",") if method]
     for method in reuse:
         if method not in METHODS:
