@@ -49,8 +49,7 @@ IncrementalPipelineOptions
 CommunityMapperController::Options::CommunityIncrementalOptions(
     const std::unordered_set<std::string>& image_names,
     const int num_threads,
-    const double own_camera_fraction,
-    const bool only_community) const {
+    const bool mapper_schedule) const {
   IncrementalPipelineOptions community_options = incremental_options;
   community_options.image_names.assign(image_names.begin(), image_names.end());
   std::sort(community_options.image_names.begin(),
@@ -59,7 +58,7 @@ CommunityMapperController::Options::CommunityIncrementalOptions(
   if (community_options.num_threads < 0) {
     community_options.num_threads = num_threads;
   }
-  if (UsesMapperSchedule(own_camera_fraction, only_community)) {
+  if (mapper_schedule) {
     return community_options;
   }
   if (community_ba_function_tolerance >= 0) {
@@ -71,6 +70,10 @@ CommunityMapperController::Options::CommunityIncrementalOptions(
     community_options.ba_global_points_ratio = community_ba_global_ratio;
   }
   return community_options;
+}
+
+bool CommunityMapperController::Options::HasCommunitySchedule() const {
+  return community_ba_function_tolerance >= 0 || community_ba_global_ratio > 0;
 }
 
 bool CommunityMapperController::Options::UsesMapperSchedule(
@@ -323,13 +326,25 @@ bool CommunityMapperController::ReconstructAndRecord(
           "own global adjustments",
           100 * own_camera_fraction);
     }
-    const CommunityReconstruction reconstruction = colmap::ReconstructCommunityModels(
-        std::make_shared<IncrementalPipelineOptions>(
-            options_.CommunityIncrementalOptions(
-                image_names, num_threads, own_camera_fraction, only_community)),
-        options_.image_path,
-        options_.database_path,
-        database_mutex);
+    const bool mapper_schedule =
+        options_.UsesMapperSchedule(own_camera_fraction, only_community);
+    // Where the community's faster schedule leaves it in several models,
+    // the mapper's own is tried as well.
+    std::shared_ptr<const IncrementalPipelineOptions> retry_options;
+    if (!mapper_schedule && options_.HasCommunitySchedule()) {
+      retry_options = std::make_shared<IncrementalPipelineOptions>(
+          options_.CommunityIncrementalOptions(
+              image_names, num_threads, /*mapper_schedule=*/true));
+    }
+    const CommunityReconstruction reconstruction =
+        colmap::ReconstructCommunityModels(
+            std::make_shared<IncrementalPipelineOptions>(
+                options_.CommunityIncrementalOptions(
+                    image_names, num_threads, mapper_schedule)),
+            options_.image_path,
+            options_.database_path,
+            database_mutex,
+            retry_options);
     record.num_models = reconstruction.num_models;
     if (reconstruction.model && reconstruction.model->NumRegImages() > 0) {
       const Reconstruction& model = *reconstruction.model;

@@ -93,6 +93,11 @@ class CommunityMapperController : public BaseController {
     // are split evenly among the workers.
     int num_workers = -1;
 
+    // The two settings below are faster than the mapper's own and give the
+    // same community model on most communities; a community they leave in
+    // several models is reconstructed again with the mapper's own, and the
+    // run holding more images in its largest model is kept.
+    //
     // Relative function tolerance of the global bundle adjustments inside
     // each community's incremental mapper; -1 takes
     // incremental_options.ba_global_function_tolerance (COLMAP's 0 runs
@@ -138,14 +143,18 @@ class CommunityMapperController : public BaseController {
 
     // The incremental mapper's options for one community's images:
     // incremental_options with the community's images (sorted) and
-    // image_path, the community_* settings above in effect (unless
-    // UsesMapperSchedule(own_camera_fraction, only_community)), and
-    // num_threads threads if incremental_options leaves it to the machine.
+    // image_path, the community_* settings above in effect unless
+    // `mapper_schedule`, and num_threads threads if incremental_options
+    // leaves it to the machine.
     IncrementalPipelineOptions CommunityIncrementalOptions(
         const std::unordered_set<std::string>& image_names,
         int num_threads,
-        double own_camera_fraction = 0,
-        bool only_community = false) const;
+        bool mapper_schedule = false) const;
+
+    // Whether the community_* settings differ from the mapper's own (a
+    // community they leave in several models is then reconstructed again
+    // with the mapper's own: community_reconstruction.h).
+    bool HasCommunitySchedule() const;
 
     bool Check() const;
   };

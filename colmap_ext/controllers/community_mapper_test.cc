@@ -45,49 +45,50 @@ TEST(CommunityIncrementalOptions, MinusOneKeepsTheMappersSettings) {
   ExpectMappersGlobalAdjustments(community_options);
 }
 
-// The plan's only community is the result (nothing is merged and adjusted
-// after it): the mapper's schedule, whatever its cameras.
-TEST(CommunityIncrementalOptions, TheOnlyCommunityKeepsTheMappers) {
+// The mapper's own schedule, where asked for, whatever the community
+// settings.
+TEST(CommunityIncrementalOptions, MapperScheduleKeepsTheMappers) {
   CommunityMapperController::Options options;
   options.community_ba_function_tolerance = 1e-5;
   options.community_ba_global_ratio = 1.3;
-  options.mapper_schedule_for_own_cameras = false;
-  ExpectMappersGlobalAdjustments(
-      options.CommunityIncrementalOptions({"a.jpg"},
-                                          /*num_threads=*/2,
-                                          /*own_camera_fraction=*/0,
-                                          /*only_community=*/true));
-  const IncrementalPipelineOptions one_of_several =
-      options.CommunityIncrementalOptions({"a.jpg"},
-                                          /*num_threads=*/2,
-                                          /*own_camera_fraction=*/0,
-                                          /*only_community=*/false);
-  EXPECT_EQ(one_of_several.ba_global_function_tolerance, 1e-5);
-  EXPECT_EQ(one_of_several.ba_global_frames_ratio, 1.3);
-}
-
-TEST(CommunityIncrementalOptions, ImagesWithCamerasOfTheirOwnKeepTheMappers) {
-  CommunityMapperController::Options options;
-  options.community_ba_function_tolerance = 1e-5;
-  options.community_ba_global_ratio = 1.3;
-  // Most images with a camera of their own: the mapper's schedule.
-  IncrementalPipelineOptions community_options =
+  const IncrementalPipelineOptions community_options =
       options.CommunityIncrementalOptions(
-          {"a.jpg"}, /*num_threads=*/3, /*own_camera_fraction=*/0.9);
+          {"a.jpg"}, /*num_threads=*/3, /*mapper_schedule=*/true);
   EXPECT_EQ(community_options.num_threads, 3);
   EXPECT_EQ(community_options.image_names, std::vector<std::string>({"a.jpg"}));
   ExpectMappersGlobalAdjustments(community_options);
+}
+
+// The plan's only community is the result (nothing is merged and adjusted
+// after it): the mapper's schedule, whatever its cameras.
+TEST(CommunityMapperOptions, TheOnlyCommunityUsesTheMappersSchedule) {
+  CommunityMapperController::Options options;
+  options.mapper_schedule_for_own_cameras = false;
+  EXPECT_TRUE(options.UsesMapperSchedule(/*own_camera_fraction=*/0,
+                                         /*only_community=*/true));
+  EXPECT_FALSE(options.UsesMapperSchedule(/*own_camera_fraction=*/0,
+                                          /*only_community=*/false));
+}
+
+TEST(CommunityMapperOptions, ImagesWithCamerasOfTheirOwnUseTheMappersSchedule) {
+  CommunityMapperController::Options options;
+  // Most images with a camera of their own: the mapper's schedule.
+  EXPECT_TRUE(options.UsesMapperSchedule(/*own_camera_fraction=*/0.9));
   // Half or fewer: the community settings.
-  community_options = options.CommunityIncrementalOptions(
-      {"a.jpg"}, /*num_threads=*/3, /*own_camera_fraction=*/0.5);
-  EXPECT_EQ(community_options.ba_global_function_tolerance, 1e-5);
-  EXPECT_EQ(community_options.ba_global_frames_ratio, 1.3);
+  EXPECT_FALSE(options.UsesMapperSchedule(/*own_camera_fraction=*/0.5));
   // Turned off: the community settings whatever the cameras.
   options.mapper_schedule_for_own_cameras = false;
-  community_options = options.CommunityIncrementalOptions(
-      {"a.jpg"}, /*num_threads=*/3, /*own_camera_fraction=*/1.0);
-  EXPECT_EQ(community_options.ba_global_function_tolerance, 1e-5);
-  EXPECT_EQ(community_options.ba_global_points_ratio, 1.3);
+  EXPECT_FALSE(options.UsesMapperSchedule(/*own_camera_fraction=*/1.0));
+}
+
+// With both community settings at -1 there is nothing to try again.
+TEST(CommunityMapperOptions, MinusOneLeavesNoCommunitySchedule) {
+  CommunityMapperController::Options options;
+  EXPECT_TRUE(options.HasCommunitySchedule());
+  options.community_ba_function_tolerance = -1;
+  EXPECT_TRUE(options.HasCommunitySchedule());
+  options.community_ba_global_ratio = -1;
+  EXPECT_FALSE(options.HasCommunitySchedule());
 }
 
 TEST(CommunityMapperOptions, CheckRefusesARatioOfOneOrLess) {

@@ -98,7 +98,9 @@ std::vector<CommunityMapperOption> CommunityMapperOptionTable(
       {"community_ba_function_tolerance",
        &mapper.community_ba_function_tolerance,
        "relative function tolerance of the communities' global bundle "
-       "adjustments (-1: Mapper.ba_global_function_tolerance)",
+       "adjustments (-1: Mapper.ba_global_function_tolerance); a community "
+       "that the community_ba_* settings leave in several models is "
+       "reconstructed again with the mapper's own",
        kShapesPlan,
        kAdvanced},
       {"community_ba_global_ratio",

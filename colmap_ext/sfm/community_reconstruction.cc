@@ -9,6 +9,7 @@
 #include "colmap/scene/database_cache.h"
 #include "colmap/scene/reconstruction_manager.h"
 #include "colmap/util/logging.h"
+#include "colmap/util/string.h"
 
 #include <algorithm>
 #include <unordered_map>
@@ -16,7 +17,10 @@
 
 namespace colmap {
 
-CommunityReconstruction ReconstructCommunityModels(
+namespace {
+
+// One run of COLMAP's incremental pipeline on the community's images.
+CommunityReconstruction ReconstructOnce(
     std::shared_ptr<const IncrementalPipelineOptions> options,
     const std::string& image_path,
     const std::string& database_path,
@@ -79,6 +83,48 @@ CommunityReconstruction ReconstructCommunityModels(
     result.model = models[0];
     result.other_models.assign(models.begin() + 1, models.end());
   }
+  return result;
+}
+
+int NumRegImages(const CommunityReconstruction& reconstruction) {
+  return reconstruction.model
+             ? static_cast<int>(reconstruction.model->NumRegImages())
+             : 0;
+}
+
+}  // namespace
+
+CommunityReconstruction ReconstructCommunityModels(
+    std::shared_ptr<const IncrementalPipelineOptions> options,
+    const std::string& image_path,
+    const std::string& database_path,
+    std::mutex* database_mutex,
+    std::shared_ptr<const IncrementalPipelineOptions> retry_options) {
+  CommunityReconstruction result =
+      ReconstructOnce(options, image_path, database_path, database_mutex);
+  if (result.num_models <= 1 || !retry_options) {
+    return result;
+  }
+  THROW_CHECK(retry_options->image_names == options->image_names);
+  LOG(INFO) << StringPrintf(
+      "The mapper left the community in %d models (%d images in the "
+      "largest): it is reconstructed again with the mapper's own global "
+      "adjustments",
+      result.num_models,
+      NumRegImages(result));
+  CommunityReconstruction retry =
+      ReconstructOnce(retry_options, image_path, database_path, database_mutex);
+  const bool retry_kept = NumRegImages(retry) > NumRegImages(result);
+  LOG(INFO) << StringPrintf(
+      "Again: %d models, %d images in the largest; the %s run is kept",
+      retry.num_models,
+      NumRegImages(retry),
+      retry_kept ? "second" : "first");
+  if (retry_kept) {
+    result = std::move(retry);
+  }
+  result.retried = true;
+  result.retry_kept = retry_kept;
   return result;
 }
 

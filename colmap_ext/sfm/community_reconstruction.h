@@ -20,6 +20,14 @@
 // the others are kept beside it, largest first: the merge lets those that
 // hold enough of the community's images take part as communities of their
 // own (community_mapper.h), instead of registering their images anew.
+//
+// A community's mapper may run faster settings than the mapper's own (fewer
+// global adjustments), which give the same model on most communities. Where
+// they do not hold the community together (its mapper had to start again:
+// several models), the community is reconstructed once more with the
+// retry settings, the mapper's own, and the run whose largest model holds
+// more images is kept: a walkway piece whose drift the sparser adjustments
+// let grow breaks where the whole database's mapper does not.
 
 #pragma once
 
@@ -41,14 +49,22 @@ struct CommunityReconstruction {
   std::vector<std::shared_ptr<Reconstruction>> other_models;
   // Models the mapper made.
   int num_models = 0;
+  // Whether the community was reconstructed again with the retry settings,
+  // and whether that run is the one kept.
+  bool retried = false;
+  bool retry_kept = false;
 };
 
-// `options.image_names` holds the community's images.
+// `options.image_names` holds the community's images. Where the mapper makes
+// several models and `retry_options` (the same images) are given, the
+// community is reconstructed again with those, and the run whose largest
+// model holds more images is kept (the first where both hold as many).
 CommunityReconstruction ReconstructCommunityModels(
     std::shared_ptr<const IncrementalPipelineOptions> options,
     const std::string& image_path,
     const std::string& database_path,
-    std::mutex* database_mutex);
+    std::mutex* database_mutex,
+    std::shared_ptr<const IncrementalPipelineOptions> retry_options = nullptr);
 
 // The fraction of `image_names` (those in the database) whose camera no
 // other image of the database uses: where most have one, the community is
