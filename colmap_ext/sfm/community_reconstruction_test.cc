@@ -119,7 +119,7 @@ TEST_F(ReconstructCommunityTest, OtherModelsAreKeptLargestFirst) {
 // The whole scene, both landmarks and the walkway between them, as one
 // community; `min_num_matches` above every walkway pair's inliers (105 at
 // most, against up to 336 within a landmark) leaves the walkway out and the
-// landmarks in two models of 16 images.
+// landmarks in two models.
 std::shared_ptr<IncrementalPipelineOptions> WholeSceneOptions(
     const SyntheticScene& scene, const int min_num_matches) {
   auto options = std::make_shared<IncrementalPipelineOptions>();
