@@ -379,25 +379,9 @@ bool CommunityMapperController::ReconstructAndRecord(
   WriteTextFileAtomically(CommunityRecordToText(record),
                           workspace_.CommunityRecordPath(community_id));
   if (record.num_registered == 0) {
-    LOG(WARNING) << StringPrintf(
-        "Community %d (%d images) could not be reconstructed; it takes no "
-        "part in the merge.",
-        community_id,
-        record.num_images);
+    LOG(WARNING) << DescribeCommunityRecord(record);
   } else {
-    LOG(INFO) << StringPrintf(
-        "Community %d done: %d of %d images registered%s, %d points (%.1fs)",
-        community_id,
-        record.num_registered,
-        record.num_images,
-        record.num_models > 1
-            ? StringPrintf(" in the largest of %d models (%d kept beside it)",
-                           record.num_models,
-                           record.num_other_models)
-                  .c_str()
-            : "",
-        record.num_points,
-        record.seconds);
+    LOG(INFO) << DescribeCommunityRecord(record);
   }
   return true;
 }

@@ -450,6 +450,29 @@ std::string CommunityRecordToText(const CommunityRecord& record) {
   return text.str();
 }
 
+std::string DescribeCommunityRecord(const CommunityRecord& record) {
+  if (record.num_registered == 0) {
+    return StringPrintf(
+        "Community %d (%d images) could not be reconstructed; it takes no "
+        "part in the merge.",
+        record.community_id,
+        record.num_images);
+  }
+  return StringPrintf(
+      "Community %d done: %d of %d images registered%s, %d points (%.1fs)",
+      record.community_id,
+      record.num_registered,
+      record.num_images,
+      record.num_models > 1
+          ? StringPrintf(" in the largest of %d models (%d kept beside it)",
+                         record.num_models,
+                         record.num_other_models)
+                .c_str()
+          : "",
+      record.num_points,
+      record.seconds);
+}
+
 CommunityRecord CommunityRecordFromText(const std::string& text) {
   const std::map<std::string, std::string> values = ReadKeyValues(text);
   CommunityRecord record;

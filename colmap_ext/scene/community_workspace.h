@@ -139,6 +139,9 @@ struct CommunityRecord {
 };
 
 std::string CommunityRecordToText(const CommunityRecord& record);
+// One line for the log: how the community came out, or that it could not be
+// reconstructed and takes no part in the merge.
+std::string DescribeCommunityRecord(const CommunityRecord& record);
 CommunityRecord CommunityRecordFromText(const std::string& text);
 
 // Reads the text file; throws if it cannot be read.

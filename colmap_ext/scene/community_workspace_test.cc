@@ -145,6 +145,28 @@ TEST(CommunityRecord, TextRoundTrip) {
   EXPECT_EQ(CommunityRecordFromText(old_text).num_other_models, 0);
 }
 
+TEST(CommunityRecord, DescribedForTheLog) {
+  CommunityRecord record;
+  record.community_id = 3;
+  record.num_images = 57;
+  record.num_registered = 55;
+  record.num_points = 4242;
+  record.num_models = 1;
+  record.seconds = 12.5;
+  EXPECT_EQ(DescribeCommunityRecord(record),
+            "Community 3 done: 55 of 57 images registered, 4242 points "
+            "(12.5s)");
+  record.num_models = 3;
+  record.num_other_models = 1;
+  EXPECT_EQ(DescribeCommunityRecord(record),
+            "Community 3 done: 55 of 57 images registered in the largest of "
+            "3 models (1 kept beside it), 4242 points (12.5s)");
+  record.num_registered = 0;
+  EXPECT_EQ(DescribeCommunityRecord(record),
+            "Community 3 (57 images) could not be reconstructed; it takes no "
+            "part in the merge.");
+}
+
 TEST(CommunityWorkspace, ResultsAreFoundAndRemoved) {
   const CommunityWorkspace workspace(
       (std::filesystem::path(CreateTestFolder()) / "out").string());

@@ -156,7 +156,10 @@ PairOutcome EstimatePairSimilarity(
       },
       &num_rejected);
   SharedImageAgreement agreement;
+  int num_supporting_images = 0;
   if (similarity.success) {
+    num_supporting_images =
+        CountSupportingImages(model1, model2, similarity.inlier_point3D_ids);
     agreement =
         CheckSharedImages(model1,
                           model2,
@@ -174,11 +177,13 @@ PairOutcome EstimatePairSimilarity(
       static_cast<int>(correspondences.Size()),
       rejected.c_str(),
       similarity.success
-          ? StringPrintf("%d inliers, scale %.4f, co-visible pairs "
+          ? StringPrintf("%d inliers seen by %d images or more of each "
+                         "model, scale %.4f, co-visible pairs "
                          "verified %d of %d across, %d of %d inside, "
                          "shared images placed alike %d of %d (largest "
                          "difference %.1f deg, %.2f spreads): used",
                          similarity.num_inliers,
+                         num_supporting_images,
                          similarity.second_from_first.scale(),
                          covisibility.num_verified_cross_pairs,
                          covisibility.num_predicted_cross_pairs,
@@ -235,6 +240,7 @@ PairOutcome EstimatePairSimilarity(
   }
   RelativeSimilarity& relative = outcome.similarity;
   relative = ToRelativeSimilarity(community1, community2, similarity);
+  relative.num_supporting_images = num_supporting_images;
   relative.num_shared_images = agreement.num_shared_images;
   relative.num_agreeing_shared_images = agreement.num_agreeing;
   relative.max_shared_image_rotation_deg = agreement.max_rotation_deg;

@@ -171,6 +171,25 @@ PairwiseSimilarity EstimatePairwiseSimilarity(
   return similarity;
 }
 
+int CountSupportingImages(
+    const Reconstruction& reconstruction1,
+    const Reconstruction& reconstruction2,
+    const std::vector<std::pair<point3D_t, point3D_t>>& point3D_ids) {
+  std::set<image_t> images1;
+  std::set<image_t> images2;
+  for (const auto& [point3D_id1, point3D_id2] : point3D_ids) {
+    for (const TrackElement& element :
+         reconstruction1.Point3D(point3D_id1).track.Elements()) {
+      images1.insert(element.image_id);
+    }
+    for (const TrackElement& element :
+         reconstruction2.Point3D(point3D_id2).track.Elements()) {
+      images2.insert(element.image_id);
+    }
+  }
+  return static_cast<int>(std::min(images1.size(), images2.size()));
+}
+
 SharedImageAgreement CheckSharedImages(
     const Reconstruction& reconstruction1,
     const Reconstruction& reconstruction2,

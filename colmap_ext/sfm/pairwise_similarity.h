@@ -141,6 +141,16 @@ SharedImageAgreement CheckSharedImages(
     double spread,
     const PairwiseSimilarityOptions& options);
 
+// The fewer, over the two reconstructions, of the registered images that
+// observe the points of `point3D_ids` (pairs of ids in the first and the
+// second): how much of each model a similarity estimated from these points
+// rests on. Points of a few images pin the two models together only
+// through those images, however many images the models have.
+int CountSupportingImages(
+    const Reconstruction& reconstruction1,
+    const Reconstruction& reconstruction2,
+    const std::vector<std::pair<point3D_t, point3D_t>>& point3D_ids);
+
 // A similarity between two communities' models, as the averaging takes it
 // (similarity_averaging.h).
 struct RelativeSimilarity {
@@ -156,6 +166,10 @@ struct RelativeSimilarity {
   std::vector<std::pair<point3D_t, point3D_t>> point3D_ids;
   // Support (number of inlier correspondences).
   double num_inliers = 0;
+  // The images that observe its inlier points, in the model where they are
+  // fewer (CountSupportingImages; 0: not known, the communities' sizes
+  // stand in).
+  int num_supporting_images = 0;
   // Images both models registered, and how many of them the similarity
   // maps onto their other copy (pairwise_similarity.h, CheckSharedImages).
   int num_shared_images = 0;

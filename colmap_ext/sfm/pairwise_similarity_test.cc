@@ -188,6 +188,53 @@ TEST_F(PairwiseSimilarityTest, SharedImagesConfirmOnlyTheRightTransform) {
   EXPECT_LT(agreement.max_relative_distance, 1e-6);
 }
 
+TEST_F(PairwiseSimilarityTest, SupportCountsTheImagesThatSeeTheInliers) {
+  const Reconstruction model1 =
+      CommunityModel(scene_.ground_truth, images1_, community1_from_world_);
+  const Reconstruction model2 =
+      CommunityModel(scene_.ground_truth, images2_, community2_from_world_);
+  const std::vector<CrossPairMatches> cross_pairs =
+      TrueCrossMatches(scene_.ground_truth, images1_, images2_);
+  const PointCorrespondences all =
+      FindPointCorrespondences(model1, model2, cross_pairs);
+  std::vector<std::pair<point3D_t, point3D_t>> all_ids;
+  std::set<image_t> seeing1;
+  std::set<image_t> seeing2;
+  for (size_t i = 0; i < all.Size(); ++i) {
+    all_ids.emplace_back(all.point3D_ids1[i], all.point3D_ids2[i]);
+    for (const auto& element :
+         model1.Point3D(all.point3D_ids1[i]).track.Elements()) {
+      seeing1.insert(element.image_id);
+    }
+    for (const auto& element :
+         model2.Point3D(all.point3D_ids2[i]).track.Elements()) {
+      seeing2.insert(element.image_id);
+    }
+  }
+  // The points both models see are seen by fewer images of one of them than
+  // it registered: the walkway's far end sees little of cluster 1.
+  const int expected =
+      static_cast<int>(std::min(seeing1.size(), seeing2.size()));
+  EXPECT_LT(expected, std::min(model1.NumRegImages(), model2.NumRegImages()));
+  EXPECT_EQ(CountSupportingImages(model1, model2, all_ids), expected);
+
+  // The points of one image pair alone rest on fewer images.
+  const PointCorrespondences one_pair =
+      FindPointCorrespondences(model1, model2, {cross_pairs.front()});
+  ASSERT_GT(one_pair.Size(), 0);
+  std::vector<std::pair<point3D_t, point3D_t>> one_pair_ids;
+  for (size_t i = 0; i < one_pair.Size(); ++i) {
+    one_pair_ids.emplace_back(one_pair.point3D_ids1[i],
+                              one_pair.point3D_ids2[i]);
+  }
+  const int one_pair_support =
+      CountSupportingImages(model1, model2, one_pair_ids);
+  EXPECT_GE(one_pair_support, 1);
+  EXPECT_LT(one_pair_support, expected);
+
+  EXPECT_EQ(CountSupportingImages(model1, model2, {}), 0);
+}
+
 TEST(EstimatePairwiseSimilarity, TooFewCorrespondences) {
   PointCorrespondences correspondences;
   for (int i = 0; i < 5; ++i) {

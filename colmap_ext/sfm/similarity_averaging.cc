@@ -443,9 +443,13 @@ SimilarityAveragingResult AverageSimilarities(
   double max_weight = 0;
   for (size_t e = 0; e < relative_similarities.size(); ++e) {
     const RelativeSimilarity& edge = relative_similarities[e];
+    double support = std::min(community_weights[edge.community1],
+                              community_weights[edge.community2]);
+    if (edge.num_supporting_images > 0) {
+      support = std::min<double>(support, edge.num_supporting_images);
+    }
     edge_weights[e] =
-        std::min(community_weights[edge.community1],
-                 community_weights[edge.community2]) *
+        support *
         std::min(1.0, edge.num_inliers / options.full_support_num_inliers) *
         (IsEdgeInDoubt(edge, options) ? options.doubtful_weight : 1.0);
     max_weight = std::max(max_weight, edge_weights[e]);

@@ -15,17 +15,19 @@
 //      translation is re-estimated from its correspondences,
 //      T_ij = median(s_j R_j X_j - s_i R_i X_i), then
 //      min sum_ij |T_i - T_j - T_ij|_1  (per coordinate).
-// Every edge counts with a confidence: the weight of its weaker community
-// (its registered images), scaled down if the edge has few inliers or its
+// Every edge counts with a confidence: the images that observe its inlier
+// points, in the community where they are fewer (at most the weaker
+// community's registered images; a similarity is only as strong as the
+// images it rests on), scaled down if the edge has few inliers or its
 // shared images are in doubt (below), mapped to [0.6, 1] so that a
 // majority of right edges around a community still outweighs a minority of
 // wrong ones. On a cycle that does not close, weighted L1 averaging puts
 // the whole disagreement on the least confident edge instead of spreading
 // it over all (every spread has the same unweighted L1 cost), so the fault
-// is found where it most likely is: in a small community, or a weakly
-// supported similarity. A community is judged by its edges alone, never by
-// its own model's statistics: a community bent by drift fits its own
-// observations as well as any.
+// is found where it most likely is: in a small community, or a similarity
+// resting on few images or few inliers. A community is judged by its edges
+// alone, never by its own model's statistics: a community bent by drift fits
+// its own observations as well as any.
 //
 // Afterwards, edges whose residuals stay large (rotation, scale ratio, or
 // translation relative to the spread of the edge's correspondences) are
@@ -80,7 +82,8 @@ namespace colmap {
 
 // A community as the averaging sees it.
 struct AveragedCommunity {
-  // Registered images of its model: its weight. The largest community of
+  // Registered images of its model: the most its edges can weigh (see
+  // RelativeSimilarity::num_supporting_images). The largest community of
   // each part is the part's reference.
   int num_images = 0;
 };

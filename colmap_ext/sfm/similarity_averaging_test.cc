@@ -756,6 +756,41 @@ TEST(AverageSimilarities, WeaklySupportedEdgeTakesUpTheDisagreement) {
   EXPECT_LT(MaxErrors(result, problem).rotation_deg, 1e-6);
 }
 
+TEST(AverageSimilarities, EdgeRestingOnFewImagesTakesUpTheDisagreement) {
+  // A triangle whose two edges at the smallest community weigh the same by
+  // the communities' sizes and have full support, but the wrong one rests on
+  // a few images of its larger community (a stretch of it that its own
+  // mapper misplaced, say, with the points it links by): it alone is
+  // dropped and the smallest community follows its other edge.
+  int bent = -1;
+  Problem problem = MakeBentCycle({50, 47, 29}, 24, 1, 2, &bent);
+  const int right = FindEdge(problem, 0, 2);
+  const int other = FindEdge(problem, 0, 1);
+  ASSERT_GE(right, 0);
+  ASSERT_GE(other, 0);
+  for (RelativeSimilarity& edge : problem.edges) {
+    edge.num_inliers = 1500;
+  }
+  problem.edges[other].num_supporting_images = 32;
+  problem.edges[right].num_supporting_images = 25;
+  problem.edges[bent].num_supporting_images = 14;
+  const SimilarityAveragingResult result = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+  EXPECT_EQ(result.NumParts(), 1);
+  for (size_t e = 0; e < problem.edges.size(); ++e) {
+    EXPECT_EQ(result.edges[e].kept, static_cast<int>(e) != bent) << e;
+  }
+  EXPECT_LT(MaxErrors(result, problem).rotation_deg, 1e-6);
+
+  // Resting on many images, the same wrong edge outweighs the right one and
+  // takes the smallest community with it.
+  problem.edges[bent].num_supporting_images = 29;
+  const SimilarityAveragingResult trusting = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+  EXPECT_FALSE(trusting.edges[right].kept);
+  EXPECT_TRUE(trusting.edges[bent].kept);
+}
+
 // Drift around a loop of many communities: every similarity of the cycle
 // maps its points `drift` further along the world's x axis than the truth
 // (as scale drift inside each community shifts where its far side meets
