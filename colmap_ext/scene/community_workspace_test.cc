@@ -115,7 +115,8 @@ TEST(DatabaseFingerprint, FollowsImagesFramesAndVerifiedPairs) {
   EXPECT_EQ(DatabaseFingerprint(*database), fingerprint);
 }
 
-TEST(CommunityRecord, TextRoundTrip) {
+// A community of 57 images, 55 of them in the largest of its 3 models.
+CommunityRecord SampleRecord() {
   CommunityRecord record;
   record.community_id = 3;
   record.num_images = 57;
@@ -126,6 +127,11 @@ TEST(CommunityRecord, TextRoundTrip) {
   record.mean_reprojection_error = 0.812345;
   record.seconds = 12.5;
   record.database_fingerprint = "0123456789abcdef";
+  return record;
+}
+
+TEST(CommunityRecord, TextRoundTrip) {
+  const CommunityRecord record = SampleRecord();
   const CommunityRecord read =
       CommunityRecordFromText(CommunityRecordToText(record));
   EXPECT_EQ(read.community_id, 3);
@@ -146,21 +152,15 @@ TEST(CommunityRecord, TextRoundTrip) {
 }
 
 TEST(CommunityRecord, DescribedForTheLog) {
-  CommunityRecord record;
-  record.community_id = 3;
-  record.num_images = 57;
-  record.num_registered = 55;
-  record.num_points = 4242;
-  record.num_models = 1;
-  record.seconds = 12.5;
-  EXPECT_EQ(DescribeCommunityRecord(record),
-            "Community 3 done: 55 of 57 images registered, 4242 points "
-            "(12.5s)");
-  record.num_models = 3;
-  record.num_other_models = 1;
+  CommunityRecord record = SampleRecord();
   EXPECT_EQ(DescribeCommunityRecord(record),
             "Community 3 done: 55 of 57 images registered in the largest of "
             "3 models (1 kept beside it), 4242 points (12.5s)");
+  record.num_models = 1;
+  record.num_other_models = 0;
+  EXPECT_EQ(DescribeCommunityRecord(record),
+            "Community 3 done: 55 of 57 images registered, 4242 points "
+            "(12.5s)");
   record.num_registered = 0;
   EXPECT_EQ(DescribeCommunityRecord(record),
             "Community 3 (57 images) could not be reconstructed; it takes no "

@@ -139,9 +139,9 @@ struct SimilarityAveragingOptions {
   // as a fraction of its weight.
   double doubtful_weight = 0.1;
 
-  // An edge with fewer inliers than this counts with its weaker
-  // community's weight times num_inliers / full_support_num_inliers (and a
-  // bridge needs its shared images to confirm it, see below).
+  // An edge with fewer inliers than this counts with its weight (the images
+  // it rests on) times num_inliers / full_support_num_inliers (and a bridge
+  // needs its shared images to confirm it, see below).
   double full_support_num_inliers = 100;
 
   // The weaker community of a rejected edge leaves the merge if it has fewer
