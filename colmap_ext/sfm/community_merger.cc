@@ -1,7 +1,8 @@
 #include "colmap_ext/sfm/community_merger.h"
-#include "colmap_ext/util/option_check.h"
 
 #include "colmap_ext/sfm/reprojection_noise.h"
+#include "colmap_ext/sfm/unexplained_matches.h"
+#include "colmap_ext/util/option_check.h"
 #include "colmap_ext/util/process_memory.h"
 
 #include "colmap/estimators/bundle_adjustment.h"
@@ -555,6 +556,7 @@ void MergedModelRefiner::BeginMapper() {
       reconstruction_->DeletePoint3D(point3D_id);
     }
   }
+  correspondence_graph_ = database_cache->CorrespondenceGraph();
   mapper_ = std::make_unique<IncrementalMapper>(std::move(database_cache));
   mapper_->BeginReconstruction(reconstruction_);
 }
@@ -715,6 +717,7 @@ void MergedModelRefiner::TriangulateAnew() {
 void MergedModelRefiner::ReleaseCorrespondences() {
   mapper_->EndReconstruction(/*discard=*/false);
   mapper_.reset();
+  correspondence_graph_.reset();
   ReleaseFreedMemory();
   observation_manager_ = std::make_unique<ObservationManager>(*reconstruction_);
 }
@@ -757,6 +760,22 @@ void MergedModelRefiner::DeregisterMisplacedImages() {
   LOG(INFO) << StringPrintf(
       "Lowest share of an image's visible points it observes: %.3f",
       min_fraction);
+  // Likewise a group of images that the pairs the model explains do not
+  // join to the rest (unexplained_matches.h): a community's mapper placed
+  // them, with their points, apart from what their matches say.
+  size_t num_apart = 0;
+  for (const image_t image_id : FindImagesApartFromTheirMatches(
+           *reconstruction_, *correspondence_graph_)) {
+    if (deregistered_images_.count(image_id) == 0) {
+      ++num_apart;
+      const frame_t frame_id = reconstruction_->Image(image_id).FrameId();
+      if (misplaced_frame_id_set.insert(frame_id).second) {
+        misplaced_frame_ids.push_back(frame_id);
+        apart_frame_poses_.emplace(
+            frame_id, reconstruction_->Frame(frame_id).RigFromWorld());
+      }
+    }
+  }
   size_t num_misplaced_images = 0;
   for (const frame_t frame_id : misplaced_frame_ids) {
     for (const data_t& data_id : reconstruction_->Frame(frame_id).ImageIds()) {
@@ -770,9 +789,40 @@ void MergedModelRefiner::DeregisterMisplacedImages() {
     mapper_->EndReconstruction(/*discard=*/false);
     mapper_->BeginReconstruction(reconstruction_);
     LOG(INFO) << StringPrintf(
-        "Deregistered %d images that observe few of their visible points, "
-        "to register them again",
-        static_cast<int>(num_misplaced_images));
+        "Deregistered %d images that observe few of their visible points or "
+        "that their matches place elsewhere (%d), to register them again",
+        static_cast<int>(num_misplaced_images),
+        static_cast<int>(num_apart));
+  }
+}
+
+void MergedModelRefiner::RestoreFramesApart() {
+  // A group that its matches place apart but that the rest of the model
+  // cannot take in (no place there explains its images: where the whole
+  // mapper misplaces it too) keeps the place its community gave it, rather
+  // than leave the model: its frames are registered there again and their
+  // images triangulated.
+  size_t num_restored = 0;
+  for (const auto& [frame_id, rig_from_world] : apart_frame_poses_) {
+    if (reconstruction_->Frame(frame_id).HasPose()) {
+      continue;
+    }
+    reconstruction_->Frame(frame_id).SetRigFromWorld(rig_from_world);
+    mapper_->ObservationManager().RegisterFrame(frame_id);
+    for (const data_t& data_id : reconstruction_->Frame(frame_id).ImageIds()) {
+      mapper_->TriangulateImage(triangulation_, data_id.id);
+      ++num_restored;
+    }
+  }
+  apart_frame_poses_.clear();
+  if (num_restored > 0) {
+    // The mapper's per-camera counts learn of them.
+    mapper_->EndReconstruction(/*discard=*/false);
+    mapper_->BeginReconstruction(reconstruction_);
+    LOG(INFO) << StringPrintf(
+        "%d images their matches place elsewhere could not be registered "
+        "there: they keep their place",
+        static_cast<int>(num_restored));
   }
 }
 
@@ -824,12 +874,16 @@ void MergedModelRefiner::AdjustInRounds() {
     if (!mapper_) {
       observation_manager_.reset();
       ReleaseFreedMemory();
-      mapper_ = std::make_unique<IncrementalMapper>(load_correspondences_());
+      std::shared_ptr<const DatabaseCache> database_cache =
+          load_correspondences_();
+      correspondence_graph_ = database_cache->CorrespondenceGraph();
+      mapper_ = std::make_unique<IncrementalMapper>(std::move(database_cache));
       mapper_->BeginReconstruction(reconstruction_);
     }
     DeregisterMisplacedImages();
     FilterFrames();
     const size_t num_registered = RegisterRemainingImages(/*log_none=*/false);
+    RestoreFramesApart();
     // Pairs the first triangulation left under-reconstructed (a border
     // still a little apart) are triangulated again with the adjusted poses,
     // once (the triangulator tries a pair once: a mapper loaded anew would

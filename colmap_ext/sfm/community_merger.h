@@ -272,6 +272,9 @@ class MergedModelRefiner {
   // registration, until few observations change.
   void AdjustInRounds();
   void DeregisterMisplacedImages();
+  // Registers the frames deregistered as placed apart from their matches
+  // that were not registered again, where they were.
+  void RestoreFramesApart();
   // Deregisters the frames with an image whose camera came out implausible,
   // as the incremental mapper does.
   void FilterFrames();
@@ -297,10 +300,14 @@ class MergedModelRefiner {
   // The mapper while the correspondences are loaded; the observation
   // manager while they are released.
   std::unique_ptr<IncrementalMapper> mapper_;
+  std::shared_ptr<const CorrespondenceGraph> correspondence_graph_;
   std::unique_ptr<ObservationManager> observation_manager_;
   // The images deregistered as misplaced or filtered (a misplaced one at
   // most once).
   std::unordered_set<image_t> deregistered_images_;
+  // The poses of the frames deregistered as placed apart from their
+  // matches, until they are registered again.
+  std::unordered_map<frame_t, Rigid3d> apart_frame_poses_;
   // How often each image was filtered for an implausible camera; one
   // filtered twice is not registered again.
   std::unordered_map<image_t, int> num_filterings_;
