@@ -300,6 +300,8 @@ class MergedModelRefiner {
   // The mapper while the correspondences are loaded; the observation
   // manager while they are released.
   std::unique_ptr<IncrementalMapper> mapper_;
+  // The mapper's correspondences, for the pairs the model explains
+  // (unexplained_matches.h); released with them.
   std::shared_ptr<const CorrespondenceGraph> correspondence_graph_;
   std::unique_ptr<ObservationManager> observation_manager_;
   // The images deregistered as misplaced or filtered (a misplaced one at

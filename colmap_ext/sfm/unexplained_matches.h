@@ -5,8 +5,8 @@
 // the model triangulated the pair's matches together. A community's mapper
 // can register a group of its images onto a look-alike structure (on South
 // Building, a stretch of facade; docs/design.md), triangulating their points
-// there too: the group fits its own observations
-// as well as any, and every check of the community's own model passes. In
+// there too: the group fits its own observations as well as any, and every
+// check of the community's own model passes. In
 // the merged model, where the neighbouring communities place the same
 // structure right, the group's pairs with the images around it are not
 // explained: their keypoints observe two copies of one structure, apart.
