@@ -556,6 +556,11 @@ void MergedModelRefiner::BeginMapper() {
       reconstruction_->DeletePoint3D(point3D_id);
     }
   }
+  StartMapper(std::move(database_cache));
+}
+
+void MergedModelRefiner::StartMapper(
+    std::shared_ptr<const DatabaseCache> database_cache) {
   correspondence_graph_ = database_cache->CorrespondenceGraph();
   mapper_ = std::make_unique<IncrementalMapper>(std::move(database_cache));
   mapper_->BeginReconstruction(reconstruction_);
@@ -874,11 +879,7 @@ void MergedModelRefiner::AdjustInRounds() {
     if (!mapper_) {
       observation_manager_.reset();
       ReleaseFreedMemory();
-      std::shared_ptr<const DatabaseCache> database_cache =
-          load_correspondences_();
-      correspondence_graph_ = database_cache->CorrespondenceGraph();
-      mapper_ = std::make_unique<IncrementalMapper>(std::move(database_cache));
-      mapper_->BeginReconstruction(reconstruction_);
+      StartMapper(load_correspondences_());
     }
     DeregisterMisplacedImages();
     FilterFrames();

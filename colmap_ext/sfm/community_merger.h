@@ -262,6 +262,9 @@ class MergedModelRefiner {
   // Loads the correspondences and begins the incremental mapper on the
   // model.
   void BeginMapper();
+  // Begins the incremental mapper on the model with `database_cache`'s
+  // correspondences (kept for the pairs the model explains).
+  void StartMapper(std::shared_ptr<const DatabaseCache> database_cache);
   // Registers the images no community registered, offered models as blocks
   // first; returns the number of images registered.
   size_t RegisterRemainingImages(bool log_none);
