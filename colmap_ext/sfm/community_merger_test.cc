@@ -359,33 +359,9 @@ TEST(MergedModelRefiner, RegistersAgainAGroupItsMatchesPlaceElsewhere) {
   // point they see, as a community's mapper places a stretch on a
   // look-alike structure: they fit their own observations, the rest fits
   // its own, and only the matches between the two say that they are apart.
-  const std::set<image_t> misplaced_set(misplaced.begin(), misplaced.end());
-  const Eigen::Vector3d offset(0.2 * scene.truth.extent, 0, 0);
-  for (const image_t image_id : misplaced) {
-    Frame& frame = model.Frame(model.Image(image_id).FrameId());
-    Rigid3d rig_from_world = frame.RigFromWorld();
-    rig_from_world.translation() -= rig_from_world.rotation() * offset;
-    frame.SetRigFromWorld(rig_from_world);
-  }
-  for (const point3D_t point3D_id : model.Point3DIds()) {
-    const Point3D point3D = model.Point3D(point3D_id);
-    Track moved;
-    Track stays;
-    for (const TrackElement& element : point3D.track.Elements()) {
-      (misplaced_set.count(element.image_id) ? moved : stays)
-          .AddElement(element);
-    }
-    if (moved.Length() == 0) {
-      continue;
-    }
-    model.DeletePoint3D(point3D_id);
-    if (moved.Length() >= 2) {
-      model.AddPoint3D(point3D.xyz + offset, moved);
-    }
-    if (stays.Length() >= 2) {
-      model.AddPoint3D(point3D.xyz, stays);
-    }
-  }
+  MoveImagesWithTheirPoints({misplaced.begin(), misplaced.end()},
+                            Eigen::Vector3d(0.2 * scene.truth.extent, 0, 0),
+                            &model);
   ASSERT_GT(EvaluateModel(model, scene.scene.ground_truth).max_position_error,
             0.1 * scene.truth.extent);
 

@@ -1,11 +1,13 @@
 #include "colmap_ext/sfm/unexplained_matches.h"
 
 #include "colmap_ext/scene/synthetic_scene.h"
+#include "colmap_ext/util/testing.h"
 
 #include "colmap/estimators/two_view_geometry.h"
 
 #include <map>
 #include <random>
+#include <set>
 
 #include <gtest/gtest.h>
 
@@ -114,33 +116,9 @@ TEST_F(UnexplainedMatchesTest, GroupMisplacedWithItsPointsIsFound) {
   // with the other images observe other points.
   const std::vector<image_t> misplaced(cluster1_.begin() + 8,
                                        cluster1_.begin() + 12);
-  const std::set<image_t> misplaced_set(misplaced.begin(), misplaced.end());
-  const Eigen::Vector3d offset(30, 0, 0);
   Reconstruction model = scene_.ground_truth;
-  for (const image_t image_id : misplaced) {
-    Frame& frame = model.Frame(model.Image(image_id).FrameId());
-    Rigid3d rig_from_world = frame.RigFromWorld();
-    // Centre c + offset: t' = t - R offset.
-    rig_from_world.translation() -= rig_from_world.rotation() * offset;
-    frame.SetRigFromWorld(rig_from_world);
-  }
-  for (const point3D_t point3D_id : model.Point3DIds()) {
-    const Point3D point3D = model.Point3D(point3D_id);
-    Track moved;
-    Track stays;
-    for (const TrackElement& element : point3D.track.Elements()) {
-      (misplaced_set.count(element.image_id) ? moved : stays)
-          .AddElement(element);
-    }
-    if (moved.Length() == 0) {
-      continue;
-    }
-    model.DeletePoint3D(point3D_id);
-    model.AddPoint3D(point3D.xyz + offset, moved);
-    if (stays.Length() > 0) {
-      model.AddPoint3D(point3D.xyz, stays);
-    }
-  }
+  MoveImagesWithTheirPoints(
+      {misplaced.begin(), misplaced.end()}, Eigen::Vector3d(30, 0, 0), &model);
   EXPECT_EQ(
       FindImagesApartFromTheirMatches(model, TrueMatches(scene_.ground_truth)),
       misplaced);

@@ -73,4 +73,34 @@ Reconstruction CommunityModel(const Reconstruction& ground_truth,
   return model;
 }
 
+void MoveImagesWithTheirPoints(const std::set<image_t>& image_ids,
+                               const Eigen::Vector3d& offset,
+                               Reconstruction* model) {
+  for (const image_t image_id : image_ids) {
+    Frame& frame = model->Frame(model->Image(image_id).FrameId());
+    Rigid3d rig_from_world = frame.RigFromWorld();
+    // Centre c + offset: t' = t - R offset.
+    rig_from_world.translation() -= rig_from_world.rotation() * offset;
+    frame.SetRigFromWorld(rig_from_world);
+  }
+  for (const point3D_t point3D_id : model->Point3DIds()) {
+    const Point3D point3D = model->Point3D(point3D_id);
+    Track moved;
+    Track stays;
+    for (const TrackElement& element : point3D.track.Elements()) {
+      (image_ids.count(element.image_id) ? moved : stays).AddElement(element);
+    }
+    if (moved.Length() == 0) {
+      continue;
+    }
+    model->DeletePoint3D(point3D_id);
+    if (moved.Length() >= 2) {
+      model->AddPoint3D(point3D.xyz + offset, moved);
+    }
+    if (stays.Length() >= 2) {
+      model->AddPoint3D(point3D.xyz, stays);
+    }
+  }
+}
+
 }  // namespace colmap

@@ -29,4 +29,14 @@ Reconstruction CommunityModel(const Reconstruction& ground_truth,
                               const std::set<image_t>& image_ids,
                               const Sim3d& model_from_world);
 
+// A group of a model's images misplaced as a community's mapper misplaces a
+// stretch onto a look-alike structure: the frames of `image_ids` moved by
+// `offset` (in world coordinates) together with their own copy of every
+// point they observe, so that they fit their own observations and the
+// other images fit theirs; each point keeps the observations of the images
+// on its side, and a copy observed by fewer than two images is dropped.
+void MoveImagesWithTheirPoints(const std::set<image_t>& image_ids,
+                               const Eigen::Vector3d& offset,
+                               Reconstruction* model);
+
 }  // namespace colmap
