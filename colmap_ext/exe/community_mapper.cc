@@ -4,6 +4,7 @@
 #include "colmap_ext/exe/community_mapper_options.h"
 #include "colmap_ext/scene/community_workspace.h"
 #include "colmap_ext/util/atomic_output.h"
+#include "colmap_ext/util/database_retry.h"
 #include "colmap_ext/util/log_tag.h"
 #include "colmap_ext/util/output_lock.h"
 #include "colmap_ext/util/process_memory.h"
@@ -308,6 +309,8 @@ int RunStage(int argc, char** argv, const CommunityMapperStage stage) {
   // The phases free their large buffers before the next phase allocates
   // its own (see process_memory.h).
   MapLargeAllocationsApart();
+  // The jobs of a cluster's job array open one database together.
+  WaitOnLockedDatabases();
   CommunityMapperCommand command;
   if (!ParseCommand(argc, argv, stage, &command)) {
     return EXIT_FAILURE;

@@ -9,10 +9,11 @@
 //     (filtered_database_cache.h), which reads the two-view geometries of
 //     the community's image pairs only, not the whole database's;
 //   - the database is loaded under `database_mutex` (shared by the threads
-//     of one process; COLMAP's Database sets no SQLite busy timeout, so two
-//     connections opening it together fail with "database is locked"), and
-//     a load that found nothing is retried a few times (for other
-//     processes, e.g. the jobs of a cluster's job array);
+//     of one process: COLMAP's Database sets no SQLite busy timeout, so two
+//     connections opening it together fail with "database is locked" unless
+//     the process waits on locks, database_retry.h), and a load that found
+//     nothing is retried a few times (for other processes, e.g. the jobs of
+//     a cluster's job array);
 //   - the random number generator of the reconstructing thread is seeded
 //     anew, so that a community gives the same model whichever worker,
 //     thread or process reconstructs it (with one thread per community).

@@ -2,12 +2,37 @@
 
 #include "colmap/util/logging.h"
 
+#include <atomic>
 #include <chrono>
 #include <exception>
 #include <stdexcept>
 #include <thread>
 
+#include <sqlite3.h>
+
 namespace colmap {
+namespace {
+
+std::atomic<int> busy_timeout_milliseconds{0};
+
+// Run by SQLite as each connection opens (an automatic extension).
+int SetBusyTimeout(sqlite3* database,
+                   const char** /*error_message*/,
+                   const void* /*api*/) {
+  sqlite3_busy_timeout(database, busy_timeout_milliseconds.load());
+  return SQLITE_OK;
+}
+
+}  // namespace
+
+void WaitOnLockedDatabases(const double timeout_seconds) {
+  THROW_CHECK_GE(timeout_seconds, 0);
+  busy_timeout_milliseconds = static_cast<int>(timeout_seconds * 1000);
+  // Registering an extension that is already registered does nothing.
+  THROW_CHECK_EQ(
+      sqlite3_auto_extension(reinterpret_cast<void (*)()>(&SetBusyTimeout)),
+      SQLITE_OK);
+}
 
 bool DatabaseRetryOptions::Check() const {
   CHECK_OPTION_GT(max_num_attempts, 0);

@@ -2,8 +2,10 @@
 //
 // Opening a database runs COLMAP's schema statements, which hold SQLite's
 // write lock briefly: the tasks of a job array that start together find it
-// locked ("database is locked", one run of tests/slurm_test.sh in four under
-// load). Such an access is tried again a few times, waiting longer each time.
+// locked ("database is locked"). Every SQLite connection of the process
+// waits for such a lock (WaitOnLockedDatabases); an access that fails all
+// the same (e.g. a load that found nothing) is tried again a few times,
+// waiting longer each time.
 
 #pragma once
 
@@ -11,6 +13,12 @@
 #include <string>
 
 namespace colmap {
+
+// From this call on, every SQLite connection the process opens (COLMAP's
+// Database and this extension's own) waits up to `timeout_seconds` for a
+// lock another connection holds, where SQLite's default is to fail at once.
+// Calling it again changes the wait.
+void WaitOnLockedDatabases(double timeout_seconds = 60.0);
 
 struct DatabaseRetryOptions {
   // Attempts in all, the first included.

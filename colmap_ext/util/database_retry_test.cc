@@ -4,8 +4,10 @@
 
 #include "colmap/scene/database.h"
 
+#include <chrono>
 #include <filesystem>
 #include <stdexcept>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <sqlite3.h>
@@ -121,6 +123,34 @@ TEST(RetryDatabaseAccess, OpensADatabaseOnceItsLockIsReleased) {
   if (holder != nullptr) {
     sqlite3_close(holder);
   }
+}
+
+// As above, but the opening itself waits for the lock to go, as every
+// connection does once WaitOnLockedDatabases was called.
+TEST(WaitOnLockedDatabases, OpeningWaitsForAnotherConnectionsLock) {
+  const std::string path =
+      (std::filesystem::path(CreateTestFolder()) / "database.db").string();
+  Database::Open(path)->Close();
+  sqlite3* holder = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &holder), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(holder,
+                         "PRAGMA locking_mode=EXCLUSIVE; BEGIN EXCLUSIVE; "
+                         "CREATE TABLE held (x INTEGER); COMMIT;",
+                         nullptr,
+                         nullptr,
+                         nullptr),
+            SQLITE_OK);
+  EXPECT_THROW(Database::Open(path), std::exception);
+
+  WaitOnLockedDatabases(30);
+  std::thread releaser([holder]() {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    sqlite3_close(holder);
+  });
+  EXPECT_EQ(Database::Open(path)->NumImages(), 0);
+  releaser.join();
+  // Later tests see SQLite's default again.
+  WaitOnLockedDatabases(0);
 }
 
 }  // namespace
