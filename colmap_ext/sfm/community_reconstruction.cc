@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <unordered_map>
+#include <unordered_set>
 #include <utility>
 
 namespace colmap {
@@ -61,9 +62,18 @@ CommunityReconstruction ReconstructOnce(
       std::make_shared<IncrementalPipelineOptions>(*options);
   pipeline_options->image_path = image_path;
   auto reconstruction_manager = std::make_shared<ReconstructionManager>();
+  const size_t num_images = database_cache->NumImages();
   IncrementalPipeline pipeline(
       pipeline_options, std::move(database_cache), reconstruction_manager);
   ReleaseFreedMemory();
+  // The pipeline starts models until at most one image is left unregistered;
+  // here it stops where no further model could be kept (see the header).
+  bool no_room_for_a_model = false;
+  pipeline.AddCallback(IncrementalPipeline::LAST_IMAGE_REG_CALLBACK, [&]() {
+    no_room_for_a_model = !RoomForAnotherModel(
+        *reconstruction_manager, num_images, pipeline_options->min_model_size);
+  });
+  pipeline.SetCheckIfStoppedFunc([&]() { return no_room_for_a_model; });
   pipeline.Run();
 
   CommunityReconstruction result;
@@ -93,6 +103,19 @@ int NumRegImages(const CommunityReconstruction& reconstruction) {
 }
 
 }  // namespace
+
+bool RoomForAnotherModel(const ReconstructionManager& models,
+                         const size_t num_images,
+                         const int min_model_size) {
+  std::unordered_set<image_t> registered;
+  for (size_t i = 0; i < models.Size(); ++i) {
+    const std::vector<image_t> image_ids = models.Get(i)->RegImageIds();
+    registered.insert(image_ids.begin(), image_ids.end());
+  }
+  THROW_CHECK_LE(registered.size(), num_images);
+  return num_images - registered.size() >=
+         static_cast<size_t>(std::max(min_model_size, 0));
+}
 
 CommunityReconstruction ReconstructCommunityModels(
     std::shared_ptr<const IncrementalPipelineOptions> options,

@@ -17,6 +17,13 @@
 //   - the random number generator of the reconstructing thread is seeded
 //     anew, so that a community gives the same model whichever worker,
 //     thread or process reconstructs it (with one thread per community).
+// The pipeline starts new models until at most one image is left
+// unregistered. A community's images that its first model leaves out are
+// mostly those whose matches lie in other communities: where fewer are left
+// than a model needs to be kept (Mapper.min_model_size), every model started
+// from them is discarded, after failed initializations and registrations in
+// each of the pipeline's relaxation rounds (minutes on an open chain), so
+// the pipeline stops there (RoomForAnotherModel).
 // Where the mapper makes several models, the largest is the community's and
 // the others are kept beside it, largest first: the merge lets those that
 // hold enough of the community's images take part as communities of their
@@ -34,6 +41,7 @@
 
 #include "colmap/controllers/incremental_pipeline.h"
 #include "colmap/scene/reconstruction.h"
+#include "colmap/scene/reconstruction_manager.h"
 
 #include <memory>
 #include <mutex>
@@ -55,6 +63,14 @@ struct CommunityReconstruction {
   bool retried = false;
   bool retry_kept = false;
 };
+
+// Whether at least `min_model_size` of `num_images` images are registered in
+// none of `models`: the images a further model of the incremental pipeline
+// starts from, which it keeps only from that size on (a model started from
+// fewer could reach it only with images another model holds already).
+bool RoomForAnotherModel(const ReconstructionManager& models,
+                         size_t num_images,
+                         int min_model_size);
 
 // `options.image_names` holds the community's images. Where the mapper makes
 // several models and `retry_options` (the same images) are given, the

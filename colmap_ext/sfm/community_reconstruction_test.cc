@@ -5,6 +5,7 @@
 
 #include "colmap/math/random.h"
 #include "colmap/scene/database.h"
+#include "colmap/scene/synthetic.h"
 
 #include <algorithm>
 #include <filesystem>
@@ -192,6 +193,32 @@ TEST_F(ReconstructCommunityTest, NoImagesWithMatchesGivesNoModel) {
       ReconstructCommunityModels(options, "", database_path_, &database_mutex);
   EXPECT_FALSE(result.model);
   EXPECT_EQ(result.num_models, 0);
+}
+
+// A model of six images, and the same six with two more in a second model.
+TEST(RoomForAnotherModel, CountsTheImagesNoModelRegisters) {
+  SyntheticDatasetOptions options;
+  options.num_rigs = 1;
+  options.num_frames_per_rig = 8;
+  options.num_points3D = 50;
+  Reconstruction eight;
+  SynthesizeDataset(options, &eight);
+  Reconstruction six = eight;
+  for (const frame_t frame_id : {1, 2}) {
+    six.DeRegisterFrame(frame_id);
+  }
+  ASSERT_EQ(six.NumRegImages(), 6);
+
+  ReconstructionManager models;
+  *models.Get(models.Add()) = six;
+  EXPECT_TRUE(RoomForAnotherModel(models, /*num_images=*/16, 10));
+  EXPECT_FALSE(RoomForAnotherModel(models, /*num_images=*/15, 10));
+  EXPECT_TRUE(RoomForAnotherModel(models, /*num_images=*/6, 0));
+
+  // The images registered in both models count once.
+  *models.Get(models.Add()) = eight;
+  EXPECT_TRUE(RoomForAnotherModel(models, /*num_images=*/18, 10));
+  EXPECT_FALSE(RoomForAnotherModel(models, /*num_images=*/17, 10));
 }
 
 TEST(OwnCameraFraction, CountsTheImagesWhoseCameraNoOtherImageUses) {
