@@ -204,7 +204,7 @@ def adjust(start, out, iterations, log, adjuster):
     with open(log, "w") as f:
         subprocess.run([COLMAP, "bundle_adjuster", "--input_path", start,
                         "--output_path", out,
-                        "--BundleAdjustment.max_num_iterations",
+                        "--BundleAdjustmentCeres.max_num_iterations",
                         str(iterations)], check=True, stdout=f, stderr=f)
     with open(log) as f:
         text = f.read()
