@@ -13,27 +13,6 @@
 namespace colmap {
 namespace {
 
-// Two landmarks joined by a walkway, without noise; `landmark1_images`
-// receives landmark 1's images, `other_images` the rest.
-void SynthesizeTwoLandmarks(const bool single_camera,
-                            SyntheticScene* scene,
-                            std::set<image_t>* other_images,
-                            std::set<image_t>* landmark1_images) {
-  SyntheticSceneOptions options;
-  options.num_clusters = 2;
-  options.num_images_per_cluster = 20;
-  options.num_images_per_link = 10;
-  options.close_loop = false;
-  options.keypoint_noise = 0;
-  options.single_camera = single_camera;
-  options.seed = 7;
-  SynthesizeCommunityScene(options, scene, /*database=*/nullptr);
-  for (const auto& image_and_cluster : scene->image_cluster) {
-    (image_and_cluster.second == 1 ? landmark1_images : other_images)
-        ->insert(image_and_cluster.first);
-  }
-}
-
 // Two landmarks joined by a walkway: the merged model holds landmark 0 and
 // the walkway in the world frame and `num_shared` images of landmark 1
 // (registered one by one, say); the community model holds landmark 1 in a

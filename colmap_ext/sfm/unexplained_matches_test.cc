@@ -50,19 +50,12 @@ CorrespondenceGraph TrueMatches(
 class UnexplainedMatchesTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    SyntheticSceneOptions options;
-    options.num_clusters = 2;
-    options.num_images_per_cluster = 20;
-    options.num_images_per_link = 10;
-    options.close_loop = false;
-    options.keypoint_noise = 0;
-    options.seed = 7;
-    SynthesizeCommunityScene(options, &scene_, /*database=*/nullptr);
-    for (const auto& [image_id, cluster] : scene_.image_cluster) {
-      (cluster == 1 ? cluster1_ : others_).push_back(image_id);
-    }
-    std::sort(cluster1_.begin(), cluster1_.end());
-    std::sort(others_.begin(), others_.end());
+    std::set<image_t> others;
+    std::set<image_t> cluster1;
+    SynthesizeTwoLandmarks(
+        /*single_camera=*/true, &scene_, &others, &cluster1);
+    others_.assign(others.begin(), others.end());
+    cluster1_.assign(cluster1.begin(), cluster1.end());
   }
 
   SyntheticScene scene_;

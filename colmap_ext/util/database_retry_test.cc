@@ -89,22 +89,28 @@ TEST(RetryDatabaseAccessOrThrow, ThrowsTheLastErrorWithThePath) {
   EXPECT_EQ(num_calls, 4);
 }
 
-// Another process (here: another connection, holding the database in
-// SQLite's exclusive locking mode after a write) keeps it locked while the
-// first attempts open it; once it lets go, the opening succeeds.
-TEST(RetryDatabaseAccess, OpensADatabaseOnceItsLockIsReleased) {
-  const std::string path =
-      (std::filesystem::path(CreateTestFolder()) / "database.db").string();
+// Creates a COLMAP database at `path` and holds it locked, as another
+// process would: `holder` is a connection in SQLite's exclusive locking mode
+// after a write, which keeps the lock until it is closed.
+void HoldLockedDatabase(const std::string& path, sqlite3** holder) {
   Database::Open(path)->Close();
-  sqlite3* holder = nullptr;
-  ASSERT_EQ(sqlite3_open(path.c_str(), &holder), SQLITE_OK);
-  ASSERT_EQ(sqlite3_exec(holder,
+  ASSERT_EQ(sqlite3_open(path.c_str(), holder), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(*holder,
                          "PRAGMA locking_mode=EXCLUSIVE; BEGIN EXCLUSIVE; "
                          "CREATE TABLE held (x INTEGER); COMMIT;",
                          nullptr,
                          nullptr,
                          nullptr),
             SQLITE_OK);
+}
+
+// Another process keeps the database locked while the first attempts open
+// it; once it lets go, the opening succeeds.
+TEST(RetryDatabaseAccess, OpensADatabaseOnceItsLockIsReleased) {
+  const std::string path =
+      (std::filesystem::path(CreateTestFolder()) / "database.db").string();
+  sqlite3* holder = nullptr;
+  ASSERT_NO_FATAL_FAILURE(HoldLockedDatabase(path, &holder));
   int num_calls = 0;
   std::string last_error;
   EXPECT_TRUE(RetryDatabaseAccess(
@@ -130,16 +136,8 @@ TEST(RetryDatabaseAccess, OpensADatabaseOnceItsLockIsReleased) {
 TEST(WaitOnLockedDatabases, OpeningWaitsForAnotherConnectionsLock) {
   const std::string path =
       (std::filesystem::path(CreateTestFolder()) / "database.db").string();
-  Database::Open(path)->Close();
   sqlite3* holder = nullptr;
-  ASSERT_EQ(sqlite3_open(path.c_str(), &holder), SQLITE_OK);
-  ASSERT_EQ(sqlite3_exec(holder,
-                         "PRAGMA locking_mode=EXCLUSIVE; BEGIN EXCLUSIVE; "
-                         "CREATE TABLE held (x INTEGER); COMMIT;",
-                         nullptr,
-                         nullptr,
-                         nullptr),
-            SQLITE_OK);
+  ASSERT_NO_FATAL_FAILURE(HoldLockedDatabase(path, &holder));
   EXPECT_THROW(Database::Open(path), std::exception);
 
   WaitOnLockedDatabases(30);

@@ -55,6 +55,25 @@ std::string ShellQuote(const std::string& text) {
   return quoted + "'";
 }
 
+void SynthesizeTwoLandmarks(const bool single_camera,
+                            SyntheticScene* scene,
+                            std::set<image_t>* other_images,
+                            std::set<image_t>* landmark1_images) {
+  SyntheticSceneOptions options;
+  options.num_clusters = 2;
+  options.num_images_per_cluster = 20;
+  options.num_images_per_link = 10;
+  options.close_loop = false;
+  options.keypoint_noise = 0;
+  options.single_camera = single_camera;
+  options.seed = 7;
+  SynthesizeCommunityScene(options, scene, /*database=*/nullptr);
+  for (const auto& image_and_cluster : scene->image_cluster) {
+    (image_and_cluster.second == 1 ? landmark1_images : other_images)
+        ->insert(image_and_cluster.first);
+  }
+}
+
 Reconstruction CommunityModel(const Reconstruction& ground_truth,
                               const std::set<image_t>& image_ids,
                               const Sim3d& model_from_world) {

@@ -2,6 +2,8 @@
 
 #pragma once
 
+#include "colmap_ext/scene/synthetic_scene.h"
+
 #include "colmap/geometry/sim3.h"
 #include "colmap/scene/reconstruction.h"
 
@@ -20,6 +22,14 @@ int RunCommand(const std::string& command, std::string* output = nullptr);
 
 // Quotes a string for the shell.
 std::string ShellQuote(const std::string& text);
+
+// Two landmarks joined by a walkway, without noise (seed 7, 20 images per
+// landmark, 10 on the walkway); `landmark1_images` receives landmark 1's
+// images, `other_images` the rest.
+void SynthesizeTwoLandmarks(bool single_camera,
+                            SyntheticScene* scene,
+                            std::set<image_t>* other_images,
+                            std::set<image_t>* landmark1_images);
 
 // A community's model as its mapper would give it, cut from a ground truth:
 // only the frames of `image_ids` registered (the other images stay,
