@@ -611,9 +611,8 @@ TEST(CommunityMapperRepeatedStructure, IdenticalTowersAreNotStacked) {
   EXPECT_NE(log.find("1 connected component(s)"), std::string::npos) << log;
   EXPECT_NE(log.find("no transform explains the matches"), std::string::npos)
       << log;
-  // The stack puts one landmark's cameras beside the other's: close views
-  // the matcher left unmatched, which keep the rejected link out of
-  // join_parts_by_rejected_links.
+  // The stack puts one landmark's cameras beside the other's: it predicts
+  // close views across, which the matcher left unmatched.
   std::smatch close_views;
   ASSERT_TRUE(std::regex_search(
       log, close_views, std::regex("close views ([0-9]+) of ([0-9]+) across")))

@@ -226,6 +226,18 @@ TEST_F(CommunityMapperStages, KilledRunResumesWithTheSameResult) {
   ASSERT_EQ(registered.size(), 3) << log;
   EXPECT_GT(std::stoi(registered[2]), 0);
   EXPECT_LE(std::stoi(registered[1]), std::stoi(registered[2]));
+  // Its partition's figures are those of a run in one go.
+  const auto summary_value = [](const std::filesystem::path& path,
+                                const std::string& key) {
+    std::smatch match;
+    const std::string text = ReadTextFile(path / "summary.txt");
+    std::regex_search(text, match, std::regex("\n" + key + " ([^\n]*)"));
+    return match.size() == 2 ? match[1].str() : std::string();
+  };
+  for (const std::string key : {"num_view_graph_images", "max_modularity"}) {
+    EXPECT_EQ(summary_value(out, key), summary_value(OneGoPath(), key)) << key;
+    EXPECT_NE(summary_value(out, key), "") << key;
+  }
   std::string reused = "this plan:";
   for (const int c : finished) {
     reused += " " + std::to_string(c);
@@ -394,8 +406,8 @@ TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
   ASSERT_GE(num_second_own, 10);
 
   // `keep_second`: the second model is written beside the first (as the
-  // community stage does now) or not (as before, when only the largest was
-  // kept). Returns the merger's log.
+  // community stage does) or not (a community of one model). Returns the
+  // merger's log.
   const auto merge = [&](const std::string& name,
                          const bool keep_second,
                          const std::string& flags = "") {

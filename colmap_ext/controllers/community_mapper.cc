@@ -121,9 +121,9 @@ bool CommunityMapperController::Partition() {
     if (!LoadPlan()) {
       return false;
     }
-    LOG(INFO) << workspace_.PlanPath()
-              << " exists and fits the database and options: the partition "
-                 "is done.";
+    LOG(INFO) << "Resuming the run in " << options_.output_path << ": "
+              << workspace_.PlanPath()
+              << " exists and fits the database and options.";
     return true;
   }
   Timer timer;
@@ -144,14 +144,13 @@ bool CommunityMapperController::Partition() {
       view_graph.ToWeightedGraph(edge_weight).ConnectedComponents();
   summary_.num_view_graph_images = static_cast<int>(view_graph.NumVertices());
   summary_.num_view_graph_edges = static_cast<int>(view_graph.NumEdges());
-  summary_.num_view_graph_components = static_cast<int>(components.size());
   LOG(INFO) << StringPrintf(
       "View graph: %d images, %d edges (>= %d inlier matches), %d connected "
       "component(s), the largest with %d images",
       summary_.num_view_graph_images,
       summary_.num_view_graph_edges,
       options_.incremental_options.min_num_matches,
-      summary_.num_view_graph_components,
+      static_cast<int>(components.size()),
       components.empty() ? 0 : static_cast<int>(components[0].size()));
   if (view_graph.NumEdges() == 0) {
     LOG(ERROR) << "The database has no verified image pairs with at least "
@@ -165,12 +164,13 @@ bool CommunityMapperController::Partition() {
 
   const CommunityPartition partition = DetectCommunities(
       graph, GreedyModularityPartitioner(), options_.community_detection);
-  summary_.max_modularity = partition.MaxModularity();
 
   plan_ = CommunityPlan();
   plan_.database_path = options_.database_path;
   plan_.database_fingerprint = database_fingerprint_;
   plan_.options = options_.plan_options;
+  plan_.max_modularity = partition.MaxModularity();
+  plan_.num_view_graph_components = static_cast<int>(components.size());
   plan_.communities.resize(partition.NumCommunities());
   CommunityPartition image_partition = partition;  // By image.
   image_partition.membership.resize(view_graph.NumVertices());
@@ -194,13 +194,11 @@ bool CommunityMapperController::Partition() {
     }
   }
   has_plan_ = true;
+  SummarizePlan();
 
   std::string sizes;
-  summary_.community_sizes.clear();
-  for (const auto& community : plan_.communities) {
-    summary_.community_sizes.push_back(
-        static_cast<int>(community.own_image_names.size()));
-    sizes += " " + std::to_string(community.own_image_names.size());
+  for (const int size : summary_.community_sizes) {
+    sizes += " " + std::to_string(size);
   }
   LOG(INFO) << StringPrintf(
       "%d communities (%d before merging those under %d images), sizes:%s",
@@ -254,13 +252,19 @@ bool CommunityMapperController::LoadPlan() {
                   "--output_path).";
     return false;
   }
+  has_plan_ = true;
+  SummarizePlan();
+  return true;
+}
+
+void CommunityMapperController::SummarizePlan() {
+  summary_.max_modularity = plan_.max_modularity;
+  summary_.num_view_graph_components = plan_.num_view_graph_components;
   summary_.community_sizes.clear();
   for (const auto& community : plan_.communities) {
     summary_.community_sizes.push_back(
         static_cast<int>(community.own_image_names.size()));
   }
-  has_plan_ = true;
-  return true;
 }
 
 bool CommunityMapperController::IsReconstructed(const int community_id) const {
@@ -512,13 +516,7 @@ bool CommunityMapperController::RunAllStages() {
 
   LOG_HEADING1("1. Partitioning the view graph into communities");
   phase_timer.Start();
-  if (ExistsFile(workspace_.PlanPath())) {
-    LOG(INFO) << "Resuming the run in " << options_.output_path
-              << " from its plan";
-    if (!LoadPlan()) {
-      return false;
-    }
-  } else if (!Partition()) {
+  if (!Partition()) {
     return false;
   }
   EndPhase("Partition", phase_timer.ElapsedSeconds());

@@ -238,6 +238,10 @@ std::string CommunityPlanToText(const CommunityPlan& plan) {
     text << "\n";
   }
   text << "end_options\n";
+  text << "max_modularity " << StringPrintf("%.6f", plan.max_modularity)
+       << "\n";
+  text << "num_view_graph_components " << plan.num_view_graph_components
+       << "\n";
   text << "num_communities " << plan.communities.size() << "\n";
   for (size_t c = 0; c < plan.communities.size(); ++c) {
     for (const std::string& name : plan.communities[c].own_image_names) {
@@ -279,6 +283,16 @@ CommunityPlan CommunityPlanFromText(const std::string& text) {
     } else if (key == "options") {
       in_options = true;
       has_options = true;
+    } else if (key == "max_modularity") {
+      fields >> plan.max_modularity;
+      if (fields.fail()) {
+        throw std::invalid_argument("malformed line '" + line + "'");
+      }
+    } else if (key == "num_view_graph_components") {
+      fields >> plan.num_view_graph_components;
+      if (fields.fail() || plan.num_view_graph_components < 0) {
+        throw std::invalid_argument("malformed line '" + line + "'");
+      }
     } else if (key == "num_communities") {
       int num_communities = -1;
       fields >> num_communities;

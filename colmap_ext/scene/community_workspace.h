@@ -96,6 +96,9 @@ struct CommunityPlan {
   // "key=value" lines of the options that shape the result.
   std::string options;
   std::vector<Community> communities;
+  // The partition's figures, for the summary of a run that reuses the plan.
+  double max_modularity = 0.0;
+  int num_view_graph_components = 0;
 
   int NumCommunities() const { return static_cast<int>(communities.size()); }
 };

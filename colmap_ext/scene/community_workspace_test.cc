@@ -20,6 +20,8 @@ CommunityPlan ExamplePlan() {
   plan.database_fingerprint = "0123456789abcdef";
   plan.options =
       "CommunityMapper.modularity_threshold=0.3\nMapper.min_num_matches=15\n";
+  plan.max_modularity = 0.4321;
+  plan.num_view_graph_components = 2;
   plan.communities.resize(2);
   plan.communities[0].own_image_names = {"a.jpg", "b c.jpg"};
   plan.communities[0].borrowed_image_names = {"d.jpg"};
@@ -34,6 +36,8 @@ TEST(CommunityPlan, TextRoundTrip) {
   EXPECT_EQ(read.database_path, plan.database_path);
   EXPECT_EQ(read.database_fingerprint, plan.database_fingerprint);
   EXPECT_EQ(read.options, plan.options);
+  EXPECT_EQ(read.max_modularity, plan.max_modularity);
+  EXPECT_EQ(read.num_view_graph_components, plan.num_view_graph_components);
   ASSERT_EQ(read.NumCommunities(), 2);
   for (int c = 0; c < 2; ++c) {
     EXPECT_EQ(read.communities[c].own_image_names,

@@ -5,8 +5,7 @@
 // part, which registers its images one at a time as the incremental mapper
 // does (IncrementalMapper::RegisterNextImage with a local bundle adjustment
 // after each). That throws away the community's own model, which its mapper
-// built and the merge judged sound, and costs a local adjustment per image
-// (about half a second each on South Building's 1024 px photographs).
+// built and the merge judged sound, and costs a local adjustment per image.
 //
 // Once the merged model and the community model register a few images in
 // common (the controller passes the community's own images only, so these
@@ -43,9 +42,8 @@ struct BlockRegistrationOptions {
 
   // Fraction of the corresponding points the similarity must explain. They
   // are the same keypoints triangulated in both models, so a right model
-  // agrees on nearly all (South Building and its subsets: 92-98%); where
-  // the model is bent or was registered on repeated structure, far fewer
-  // agree.
+  // agrees on nearly all; where the model is bent or was registered on
+  // repeated structure, far fewer agree (docs/design.md).
   double min_inlier_fraction = 0.5;
 
   // The similarity's estimation and its check of the shared images.
