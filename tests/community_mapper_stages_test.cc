@@ -8,7 +8,7 @@
 #include "colmap_ext/scene/community_workspace.h"
 #include "colmap_ext/scene/model_evaluation.h"
 #include "colmap_ext/sfm/community_merge.h"
-#include "colmap_ext/sfm/community_merger.h"
+#include "colmap_ext/sfm/model_join.h"
 #include "colmap_ext/util/atomic_output.h"
 #include "colmap_ext/util/testing.h"
 

@@ -4,6 +4,7 @@
 #include "colmap_ext/scene/filtered_database_cache.h"
 #include "colmap_ext/sfm/community_alignment.h"
 #include "colmap_ext/sfm/link_confirmation.h"
+#include "colmap_ext/sfm/model_join.h"
 #include "colmap_ext/sfm/part_offers.h"
 #include "colmap_ext/util/process_memory.h"
 

@@ -8,7 +8,7 @@
 // similarity per community, world_from_community (similarity_averaging.h:
 // L1 scale, L1RA rotation and L1 translation averaging), the communities
 // are transformed and joined, their corresponding points merged, and the
-// joined model is refined by bundle adjustment (community_merger.h).
+// joined model is refined by bundle adjustment (merged_model_refiner.h).
 //
 // The merge judges its communities by their links alone, not by their own
 // models' statistics (docs/design.md):
@@ -27,8 +27,8 @@
 #include "colmap_ext/graph/view_graph.h"
 #include "colmap_ext/scene/community_workspace.h"
 #include "colmap_ext/sfm/community_alignment.h"
-#include "colmap_ext/sfm/community_merger.h"
 #include "colmap_ext/sfm/covisibility_check.h"
+#include "colmap_ext/sfm/merged_model_refiner.h"
 #include "colmap_ext/sfm/pairwise_similarity.h"
 #include "colmap_ext/sfm/similarity_averaging.h"
 

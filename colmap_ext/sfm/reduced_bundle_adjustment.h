@@ -24,7 +24,7 @@
 // which is independent per point (3 unknowns each) and runs in chunks of
 // bounded size. The cameras are noisier than after an adjustment over all
 // observations (the noise averages over fewer of them): the merge ends
-// with one such adjustment (community_merger.h).
+// with one such adjustment (merged_model_refiner.h).
 //
 // Both are COLMAP's bundle adjustment (CreateDefaultBundleAdjuster), the
 // first with the tracks outside the subset ignored.
