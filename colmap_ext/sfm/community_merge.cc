@@ -310,6 +310,67 @@ std::shared_ptr<Reconstruction> CommunityMerge::LeftModel(
       std::move(model));
 }
 
+void CommunityMerge::KeepModel(
+    std::shared_ptr<Reconstruction> model,
+    std::unordered_set<image_t>* registered_image_ids) {
+  const std::vector<image_t> reg_image_ids = model->RegImageIds();
+  registered_image_ids->insert(reg_image_ids.begin(), reg_image_ids.end());
+  result_.models.push_back(std::move(model));
+}
+
+std::vector<int> CommunityMerge::PartCommunities(
+    const int part,
+    const std::unordered_set<image_t>& registered_image_ids,
+    size_t* num_left_images) const {
+  std::vector<int> part_communities;
+  *num_left_images = 0;
+  for (int c = 0; c < static_cast<int>(models_.size()); ++c) {
+    if (averaging_.part_of_community[c] != part || !models_[c]) {
+      continue;
+    }
+    part_communities.push_back(c);
+    size_t num_taken = 0;
+    for (const image_t image_id : models_[c]->RegImageIds()) {
+      if (communities_.own_image_ids[c].count(image_id) == 0) {
+        continue;
+      }
+      if (registered_image_ids.count(image_id)) {
+        ++num_taken;
+      } else {
+        ++*num_left_images;
+      }
+    }
+    if (num_taken > 0) {
+      LOG(INFO) << StringPrintf(
+          "Community %d: %d of its own images are in an earlier part's "
+          "model already",
+          c,
+          static_cast<int>(num_taken));
+    }
+  }
+  return part_communities;
+}
+
+void CommunityMerge::KeepSetAsideCommunities(
+    std::unordered_set<image_t>* registered_image_ids) {
+  // A community that left the merge keeps the images nobody registered as
+  // a model of its own, if there are as many as the incremental mapper
+  // keeps in a model (Mapper.min_model_size): it was small.
+  for (const int c : set_aside_communities_) {
+    std::shared_ptr<Reconstruction> model =
+        LeftModel(c, /*model=*/nullptr, *registered_image_ids);
+    if (static_cast<int>(model->NumRegImages()) >=
+        options_.incremental_options.min_model_size) {
+      LOG(INFO) << StringPrintf(
+          "Community %d left the merge: %d of its images that no merged model "
+          "registered keep its model, as a model of its own",
+          c,
+          static_cast<int>(model->NumRegImages()));
+      KeepModel(std::move(model), registered_image_ids);
+    }
+  }
+}
+
 // Every part of the averaging is merged into one model (MergePart),
 // largest parts first as the averaging numbers them, each on the images no
 // earlier part's model registered plus those offered to it; a part left
@@ -339,42 +400,16 @@ void CommunityMerge::MergeParts() {
       }
     }
   }
-  // The models written, and the images they registered (which later parts
-  // and communities leave out).
-  std::vector<std::shared_ptr<Reconstruction>>& merged_models = result_.models;
+  // The images the models written registered (which later parts and
+  // communities leave out).
   std::unordered_set<image_t> registered_image_ids;
   const auto keep_model = [&](std::shared_ptr<Reconstruction> model) {
-    const std::vector<image_t> reg_image_ids = model->RegImageIds();
-    registered_image_ids.insert(reg_image_ids.begin(), reg_image_ids.end());
-    merged_models.push_back(std::move(model));
+    KeepModel(std::move(model), &registered_image_ids);
   };
   for (int part = 0; part < averaging_.NumParts(); ++part) {
-    std::vector<int> part_communities;
     size_t num_left_images = 0;
-    for (int c = 0; c < num_communities; ++c) {
-      if (averaging_.part_of_community[c] != part || !models_[c]) {
-        continue;
-      }
-      part_communities.push_back(c);
-      size_t num_taken = 0;
-      for (const image_t image_id : models_[c]->RegImageIds()) {
-        if (communities_.own_image_ids[c].count(image_id) == 0) {
-          continue;
-        }
-        if (registered_image_ids.count(image_id)) {
-          ++num_taken;
-        } else {
-          ++num_left_images;
-        }
-      }
-      if (num_taken > 0) {
-        LOG(INFO) << StringPrintf(
-            "Community %d: %d of its own images are in an earlier part's "
-            "model already",
-            c,
-            static_cast<int>(num_taken));
-      }
-    }
+    const std::vector<int> part_communities =
+        PartCommunities(part, registered_image_ids, &num_left_images);
     for (const image_t image_id : registered_image_ids) {
       const auto it = communities_.name_of_image.find(image_id);
       if (it != communities_.name_of_image.end()) {
@@ -460,24 +495,9 @@ void CommunityMerge::MergeParts() {
     }
   }
 
-  // A community that left the merge keeps the images nobody registered as
-  // a model of its own, if there are as many as the incremental mapper
-  // keeps in a model (Mapper.min_model_size): it was small.
-  for (const int c : set_aside_communities_) {
-    std::shared_ptr<Reconstruction> model =
-        LeftModel(c, /*model=*/nullptr, registered_image_ids);
-    if (static_cast<int>(model->NumRegImages()) >=
-        options_.incremental_options.min_model_size) {
-      LOG(INFO) << StringPrintf(
-          "Community %d left the merge: %d of its images that no merged model "
-          "registered keep its model, as a model of its own",
-          c,
-          static_cast<int>(model->NumRegImages()));
-      keep_model(std::move(model));
-    }
-  }
-  std::stable_sort(merged_models.begin(),
-                   merged_models.end(),
+  KeepSetAsideCommunities(&registered_image_ids);
+  std::stable_sort(result_.models.begin(),
+                   result_.models.end(),
                    [](const std::shared_ptr<Reconstruction>& a,
                       const std::shared_ptr<Reconstruction>& b) {
                      return a->NumRegImages() > b->NumRegImages();

@@ -193,6 +193,19 @@ class CommunityMerge {
       int c,
       std::shared_ptr<Reconstruction> model,
       const std::unordered_set<image_t>& taken_image_ids) const;
+  // Adds a model to the result and its images to `registered_image_ids`.
+  void KeepModel(std::shared_ptr<Reconstruction> model,
+                 std::unordered_set<image_t>* registered_image_ids);
+  // The communities of `part` with a model, and how many of their own
+  // registered images no model in `registered_image_ids` holds.
+  std::vector<int> PartCommunities(
+      int part,
+      const std::unordered_set<image_t>& registered_image_ids,
+      size_t* num_left_images) const;
+  // The set-aside communities' models of the images no model registered, of
+  // at least Mapper.min_model_size images, kept as models of their own.
+  void KeepSetAsideCommunities(
+      std::unordered_set<image_t>* registered_image_ids);
   std::shared_ptr<Reconstruction> MergePart(
       const std::vector<int>& part_communities,
       const std::unordered_set<std::string>& extra_image_names,
