@@ -67,9 +67,11 @@ ceres::Solver::Options RefinementSolverOptions(
 // COLMAP's mapper fixes it (one frame, one coordinate of a second), over all
 // observations or, with `refinement.reduced_adjustment`, on the selected
 // tracks followed by the other points with the cameras fixed (where the
-// selected tracks hold few enough of the observations).
+// selected tracks hold few enough of the observations), the intrinsics of
+// `constant_cameras` held.
 bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
                         const MergedModelRefinementOptions& refinement,
+                        const std::unordered_set<camera_t>& constant_cameras,
                         ObservationManager* observation_manager,
                         Reconstruction* reconstruction) {
   const size_t num_reg_images = reconstruction->NumRegImages();
@@ -96,7 +98,7 @@ bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
   }
   if (!selected.empty()) {
     const bool usable = AdjustCamerasOnTracks(
-        options, solver_options, selected, reconstruction);
+        options, solver_options, selected, reconstruction, constant_cameras);
     Timer timer;
     timer.Start();
     const size_t num_refined = RefinePointsWithFixedCameras(
@@ -108,8 +110,8 @@ bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
     return usable;
   }
 
-  const ceres::Solver::Summary summary =
-      AdjustAllObservations(options, solver_options, reconstruction);
+  const ceres::Solver::Summary summary = AdjustAllObservations(
+      options, solver_options, reconstruction, constant_cameras);
   if (summary.num_residuals <= 0) {
     return false;
   }
@@ -386,11 +388,14 @@ size_t MergedModelRefiner::RegisterRemainingImages(const bool log_none) {
     bool registered = false;
     for (const image_t image_id : mapper_->FindNextImages(incremental_)) {
       const auto filterings = num_filterings_.find(image_id);
-      if ((filterings == num_filterings_.end() || filterings->second < 2) &&
+      const int num_filterings =
+          filterings == num_filterings_.end() ? 0 : filterings->second;
+      if (num_filterings < 3 &&
           mapper_->RegisterNextImage(incremental_, image_id)) {
         // The image registers its frame: all the frame's images are
         // triangulated.
         const Frame& frame = *reconstruction_->Image(image_id).FramePtr();
+        HoldCamerasFilteredTwice(frame);
         for (const data_t& data_id : frame.ImageIds()) {
           mapper_->TriangulateImage(triangulation_, data_id.id);
         }
@@ -583,10 +588,7 @@ void MergedModelRefiner::FilterFrames() {
   // image whose camera came out implausible (focal length or distortion
   // beyond Mapper.min/max_focal_length_ratio and max_extra_param) or without
   // observations are deregistered, to be registered again with their camera
-  // reset to the database's (IncrementalMapper::RegisterNextImage). An image
-  // filtered a second time is not registered again: its camera cannot be
-  // estimated from what the model sees of it, and each new try would cost a
-  // round.
+  // reset to the database's (IncrementalMapper::RegisterNextImage).
   const std::vector<image_t> reg_image_ids = reconstruction_->RegImageIds();
   if (mapper_->FilterFrames(incremental_) == 0) {
     return;
@@ -596,6 +598,29 @@ void MergedModelRefiner::FilterFrames() {
       ++summary_.num_filtered_images;
       deregistered_images_.insert(image_id);
       ++num_filterings_[image_id];
+    }
+  }
+}
+
+void MergedModelRefiner::HoldCamerasFilteredTwice(const Frame& frame) {
+  // An image filtered twice has a camera the adjustments cannot estimate
+  // from what the model sees of it (on an open chain with a camera per
+  // image, a focal length that shrank to a few dozen pixels, twice). Its
+  // camera is then estimated once more, as it registers, from its matches
+  // to the model's points, and held from there on, as the mapper holds the
+  // cameras a user fixes (Mapper.constant_cameras); filtered a third time,
+  // the image is not registered again.
+  for (const data_t& data_id : frame.ImageIds()) {
+    const auto filterings = num_filterings_.find(data_id.id);
+    if (filterings != num_filterings_.end() && filterings->second == 2) {
+      const camera_t camera_id = reconstruction_->Image(data_id.id).CameraId();
+      if (incremental_.constant_cameras.insert(camera_id).second) {
+        LOG(INFO) << StringPrintf(
+            "%s: its camera came out implausible twice; it is held as the "
+            "image registers again (focal length %.1f)",
+            reconstruction_->Image(data_id.id).Name().c_str(),
+            reconstruction_->Image(data_id.id).CameraPtr()->MeanFocalLength());
+      }
     }
   }
 }
@@ -620,6 +645,7 @@ void MergedModelRefiner::AdjustInRounds() {
     AdjustGlobalBundle(
         ba_options_,
         options_,
+        incremental_.constant_cameras,
         mapper_ ? &mapper_->ObservationManager() : observation_manager_.get(),
         reconstruction_.get());
     reconstruction_->Normalize();
@@ -698,6 +724,7 @@ void MergedModelRefiner::AdjustLastTime() {
   full_options.reduced_adjustment = false;
   AdjustGlobalBundle(ba_options_,
                      full_options,
+                     incremental_.constant_cameras,
                      observation_manager_.get(),
                      reconstruction_.get());
   // As after every adjustment before (and the incremental mapper's last),

@@ -231,6 +231,9 @@ class MergedModelRefiner {
   // registration, until few observations change.
   void AdjustInRounds();
   void DeregisterMisplacedImages();
+  // Holds the cameras of the frame's images filtered twice for an
+  // implausible camera (the frame just registered).
+  void HoldCamerasFilteredTwice(const Frame& frame);
   // Registers the frames deregistered as placed apart from their matches
   // that were not registered again, where they were.
   void RestoreFramesApart();
@@ -248,7 +251,8 @@ class MergedModelRefiner {
 
   const MergedModelRefinementOptions options_;
   const IncrementalPipelineOptions mapper_options_;
-  const IncrementalMapper::Options incremental_;
+  // Its constant_cameras gain the cameras held (see FilterFrames).
+  IncrementalMapper::Options incremental_;
   const IncrementalTriangulator::Options triangulation_;
   const BundleAdjustmentOptions ba_options_;
   const std::function<std::shared_ptr<const DatabaseCache>()>
@@ -269,8 +273,8 @@ class MergedModelRefiner {
   // The poses of the frames deregistered as placed apart from their
   // matches, until they are registered again.
   std::unordered_map<frame_t, Rigid3d> apart_frame_poses_;
-  // How often each image was filtered for an implausible camera; one
-  // filtered twice is not registered again.
+  // How often each image was filtered for an implausible camera (see
+  // FilterFrames).
   std::unordered_map<image_t, int> num_filterings_;
   // Per offered model: registered as a block, and the images it shared with
   // the model at the last try of this round (a try with no new one is not

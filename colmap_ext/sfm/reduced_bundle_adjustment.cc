@@ -40,12 +40,19 @@ TrackRank RankOf(const TrackSelectionOptions& options,
 }
 
 // The configuration of COLMAP's mapper's global adjustment: every image of
-// the registered frames, the gauge held by two frames.
-BundleAdjustmentConfig MappersConfig(const Reconstruction& reconstruction) {
+// the registered frames, the gauge held by two frames, the intrinsics of
+// `constant_cameras` held.
+BundleAdjustmentConfig MappersConfig(
+    const Reconstruction& reconstruction,
+    const std::unordered_set<camera_t>& constant_cameras) {
   BundleAdjustmentConfig config;
   for (const frame_t frame_id : reconstruction.RegFrameIds()) {
     for (const data_t& data_id : reconstruction.Frame(frame_id).ImageIds()) {
       config.AddImage(data_id.id);
+      const camera_t camera_id = reconstruction.Image(data_id.id).CameraId();
+      if (constant_cameras.count(camera_id) > 0) {
+        config.SetConstantCamIntrinsics(camera_id);
+      }
     }
   }
   config.FixGauge(BundleAdjustmentGauge::TWO_CAMS_FROM_WORLD);
@@ -177,7 +184,8 @@ std::string SolverSummaryToString(const ceres::Solver::Options& options,
 ceres::Solver::Summary AdjustAllObservations(
     const BundleAdjustmentOptions& ba_options,
     ceres::Solver::Options solver_options,
-    Reconstruction* reconstruction) {
+    Reconstruction* reconstruction,
+    const std::unordered_set<camera_t>& constant_cameras) {
   THROW_CHECK_NOTNULL(reconstruction);
   if (reconstruction->NumRegImages() < 2) {
     ceres::Solver::Summary summary;
@@ -186,21 +194,24 @@ ceres::Solver::Summary AdjustAllObservations(
   }
   return SolveOnCeres(ba_options,
                       std::move(solver_options),
-                      MappersConfig(*reconstruction),
+                      MappersConfig(*reconstruction, constant_cameras),
                       reconstruction);
 }
 
-bool AdjustCamerasOnTracks(const BundleAdjustmentOptions& ba_options,
-                           ceres::Solver::Options solver_options,
-                           const std::unordered_set<point3D_t>& point3D_ids,
-                           Reconstruction* reconstruction) {
+bool AdjustCamerasOnTracks(
+    const BundleAdjustmentOptions& ba_options,
+    ceres::Solver::Options solver_options,
+    const std::unordered_set<point3D_t>& point3D_ids,
+    Reconstruction* reconstruction,
+    const std::unordered_set<camera_t>& constant_cameras) {
   THROW_CHECK_NOTNULL(reconstruction);
   if (reconstruction->NumRegImages() < 2 || point3D_ids.empty()) {
     return false;
   }
   Timer timer;
   timer.Start();
-  BundleAdjustmentConfig config = MappersConfig(*reconstruction);
+  BundleAdjustmentConfig config =
+      MappersConfig(*reconstruction, constant_cameras);
   for (const auto& [point3D_id, _] : reconstruction->Points3D()) {
     if (point3D_ids.count(point3D_id) == 0) {
       config.IgnorePoint(point3D_id);

@@ -85,23 +85,28 @@ std::string SolverSummaryToString(const ceres::Solver::Options& options,
 // they are (e.g. `ba_options.ceres->solver_options` with a linear solver
 // chosen for the size; num_threads -1 takes all cores, whatever the size of
 // the problem). Returns whether the solution is usable.
-bool AdjustCamerasOnTracks(const BundleAdjustmentOptions& ba_options,
-                           ceres::Solver::Options solver_options,
-                           const std::unordered_set<point3D_t>& point3D_ids,
-                           Reconstruction* reconstruction);
+bool AdjustCamerasOnTracks(
+    const BundleAdjustmentOptions& ba_options,
+    ceres::Solver::Options solver_options,
+    const std::unordered_set<point3D_t>& point3D_ids,
+    Reconstruction* reconstruction,
+    const std::unordered_set<camera_t>& constant_cameras = {});
 
 // COLMAP's global bundle adjustment, the counterpart of the above over all
 // observations: all registered frames, the intrinsics of their cameras and
 // their rigs (as `ba_options` says which to refine) and all points, with
 // `ba_options`' loss (`refine_rig_from_world` false holds every pose), the
 // gauge fixed as above, solved on Ceres with `solver_options` as they are
-// (num_threads -1 takes all cores). Returns Ceres' summary (with fewer than
+// (num_threads -1 takes all cores). In both, the intrinsics of
+// `constant_cameras` are held (as IncrementalMapper::Options'
+// constant_cameras). Returns Ceres' summary (with fewer than
 // two registered images or no observation, one that is not usable, after no
 // iteration).
 ceres::Solver::Summary AdjustAllObservations(
     const BundleAdjustmentOptions& ba_options,
     ceres::Solver::Options solver_options,
-    Reconstruction* reconstruction);
+    Reconstruction* reconstruction,
+    const std::unordered_set<camera_t>& constant_cameras = {});
 
 // Refines every point of `reconstruction` outside `excluded_point3D_ids`
 // with all cameras and poses fixed (least squares), in problems of at most

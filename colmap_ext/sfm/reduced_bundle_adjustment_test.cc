@@ -262,6 +262,43 @@ TEST(AdjustAllObservations, UndoesAPerturbationWithTheMappersGauge) {
   EXPECT_TRUE(nothing.iterations.empty());
 }
 
+TEST(AdjustAllObservations, HoldsTheConstantCameras) {
+  const Reconstruction ground_truth = WellConditionedGroundTruth();
+  BundleAdjustmentOptions ba_options = AdjustmentOptions();
+  ba_options.refine_focal_length = true;
+  Reconstruction model = Perturbed(ground_truth);
+  const camera_t camera_id = model.Cameras().begin()->first;
+  model.Camera(camera_id).SetFocalLength(
+      1.1 * model.Camera(camera_id).MeanFocalLength());
+  const std::vector<double> params = model.Camera(camera_id).params;
+
+  Reconstruction held = model;
+  ASSERT_TRUE(AdjustAllObservations(ba_options,
+                                    ba_options.ceres->solver_options,
+                                    &held,
+                                    /*constant_cameras=*/{camera_id})
+                  .IsSolutionUsable());
+  EXPECT_EQ(held.Camera(camera_id).params, params);
+  const TrackSelectionOptions selection;
+  Reconstruction held_on_tracks = model;
+  ASSERT_TRUE(AdjustCamerasOnTracks(ba_options,
+                                    ba_options.ceres->solver_options,
+                                    SelectBundleTracks(selection, model),
+                                    &held_on_tracks,
+                                    /*constant_cameras=*/{camera_id}));
+  EXPECT_EQ(held_on_tracks.Camera(camera_id).params, params);
+
+  // Not held, the focal length goes back towards the truth.
+  ASSERT_TRUE(AdjustAllObservations(
+                  ba_options, ba_options.ceres->solver_options, &model)
+                  .IsSolutionUsable());
+  const double true_focal_length =
+      ground_truth.Camera(camera_id).MeanFocalLength();
+  EXPECT_LT(
+      std::abs(model.Camera(camera_id).MeanFocalLength() - true_focal_length),
+      0.01 * true_focal_length);
+}
+
 TEST(RefinePointsWithFixedCameras, LeavesCamerasAndExcludedPointsAlone) {
   const Reconstruction ground_truth = WellConditionedGroundTruth();
   Reconstruction model = Perturbed(ground_truth);
