@@ -6,56 +6,93 @@
 
 namespace colmap {
 
-void JoinReconstructions(
-    const std::vector<Reconstruction*>& reconstructions,
-    const std::vector<Sim3d>& world_from_reconstruction,
-    const std::vector<std::unordered_set<image_t>>& owned_image_ids,
-    Reconstruction* merged,
-    std::vector<std::unordered_map<point3D_t, point3D_t>>* point3D_ids) {
-  THROW_CHECK_EQ(reconstructions.size(), world_from_reconstruction.size());
-  THROW_CHECK_EQ(reconstructions.size(), owned_image_ids.size());
-  THROW_CHECK_NOTNULL(merged);
-  THROW_CHECK_NOTNULL(point3D_ids);
-  THROW_CHECK_EQ(merged->NumImages(), 0);
+namespace {
 
-  for (size_t r = 0; r < reconstructions.size(); ++r) {
-    reconstructions[r]->Transform(world_from_reconstruction[r]);
-  }
-
-  // Each registered frame comes whole from the first reconstruction that
-  // registered it and owns one of its images: a frame's images share one
-  // pose and stay together.
-  std::unordered_map<frame_t, size_t> frame_source;
-  std::unordered_map<image_t, size_t> image_owner;
-  for (size_t r = 0; r < reconstructions.size(); ++r) {
-    const Reconstruction& reconstruction = *reconstructions[r];
-    for (const frame_t frame_id : reconstruction.RegFrameIds()) {
-      bool owns_image = false;
-      for (const data_t& data_id : reconstruction.Frame(frame_id).ImageIds()) {
-        if (owned_image_ids[r].count(data_id.id) == 0) {
-          continue;
+// Which reconstruction each registered frame comes from: the first that
+// registered it and owns one of its images (a frame's images share one
+// pose and stay together).
+class FrameSources {
+ public:
+  FrameSources(
+      const std::vector<Reconstruction*>& reconstructions,
+      const std::vector<std::unordered_set<image_t>>& owned_image_ids) {
+    std::unordered_set<image_t> owned;
+    for (size_t r = 0; r < reconstructions.size(); ++r) {
+      const Reconstruction& reconstruction = *reconstructions[r];
+      for (const frame_t frame_id : reconstruction.RegFrameIds()) {
+        bool owns_image = false;
+        for (const data_t& data_id :
+             reconstruction.Frame(frame_id).ImageIds()) {
+          if (owned_image_ids[r].count(data_id.id) == 0) {
+            continue;
+          }
+          owns_image = true;
+          THROW_CHECK(owned.insert(data_id.id).second)
+              << "Image " << reconstruction.Image(data_id.id).Name()
+              << " is owned by two reconstructions.";
         }
-        owns_image = true;
-        THROW_CHECK(image_owner.emplace(data_id.id, r).second)
-            << "Image " << reconstruction.Image(data_id.id).Name()
-            << " is owned by two reconstructions.";
-      }
-      if (owns_image) {
-        frame_source.emplace(frame_id, r);
+        if (owns_image) {
+          source_.emplace(frame_id, r);
+        }
       }
     }
   }
-  auto takes_frame = [&](const size_t r, const frame_t frame_id) {
-    const auto it = frame_source.find(frame_id);
-    return it != frame_source.end() && it->second == r;
-  };
-  auto owns = [&](const size_t r, const image_t image_id) {
-    return reconstructions[r]->ExistsImage(image_id) &&
-           takes_frame(r, reconstructions[r]->Image(image_id).FrameId());
-  };
 
-  // Cameras and rigs: those of the reconstruction owning the most images
-  // with them (frames of them); a rig's other cameras come with it.
+  // Whether reconstruction r gives the frame.
+  bool Takes(const size_t r, const frame_t frame_id) const {
+    const auto it = source_.find(frame_id);
+    return it != source_.end() && it->second == r;
+  }
+
+ private:
+  std::unordered_map<frame_t, size_t> source_;
+};
+
+// The merged rig's sensor poses: every community's mapper refined the rig
+// on its own frames, one on few of them perhaps, so each is the average of
+// all estimates (in the world frame), weighted by their frames.
+void AverageSensorPoses(
+    const std::vector<Reconstruction*>& reconstructions,
+    const std::vector<std::unordered_map<rig_t, size_t>>& num_frames_of_rig,
+    const rig_t rig_id,
+    Rig* merged_rig) {
+  for (auto& [sensor_id, sensor_from_rig] : merged_rig->NonRefSensors()) {
+    if (!sensor_from_rig) {
+      continue;
+    }
+    const Eigen::Vector4d reference = sensor_from_rig->rotation().coeffs();
+    Eigen::Vector4d rotation_sum = Eigen::Vector4d::Zero();
+    Eigen::Vector3d translation_sum = Eigen::Vector3d::Zero();
+    double weight_sum = 0;
+    for (size_t r = 0; r < reconstructions.size(); ++r) {
+      const auto it = num_frames_of_rig[r].find(rig_id);
+      if (it == num_frames_of_rig[r].end() ||
+          !reconstructions[r]->Rig(rig_id).HasSensorFromRig(sensor_id)) {
+        continue;
+      }
+      const Rigid3d& pose =
+          reconstructions[r]->Rig(rig_id).SensorFromRig(sensor_id);
+      Eigen::Vector4d rotation = pose.rotation().coeffs();
+      if (rotation.dot(reference) < 0) {
+        rotation = -rotation;
+      }
+      const double weight = static_cast<double>(it->second);
+      rotation_sum += weight * rotation;
+      translation_sum += weight * pose.translation();
+      weight_sum += weight;
+    }
+    if (weight_sum > 0) {
+      *sensor_from_rig = Rigid3d(Eigen::Quaterniond(rotation_sum.normalized()),
+                                 translation_sum / weight_sum);
+    }
+  }
+}
+
+// Cameras and rigs: those of the reconstruction owning the most images
+// with them (frames of them); a rig's other cameras come with it.
+void JoinCamerasAndRigs(const std::vector<Reconstruction*>& reconstructions,
+                        const FrameSources& frame_sources,
+                        Reconstruction* merged) {
   std::unordered_map<camera_t, std::pair<size_t, size_t>> camera_source;
   std::unordered_map<rig_t, std::pair<size_t, size_t>> rig_source;
   std::vector<std::unordered_map<rig_t, size_t>> num_frames_of_rig(
@@ -63,14 +100,12 @@ void JoinReconstructions(
   for (size_t r = 0; r < reconstructions.size(); ++r) {
     const Reconstruction& reconstruction = *reconstructions[r];
     std::unordered_map<camera_t, size_t> num_images_per_camera;
-    std::unordered_map<rig_t, size_t>& num_frames_per_rig =
-        num_frames_of_rig[r];
     for (const frame_t frame_id : reconstruction.RegFrameIds()) {
-      if (!takes_frame(r, frame_id)) {
+      if (!frame_sources.Takes(r, frame_id)) {
         continue;
       }
       const Frame& frame = reconstruction.Frame(frame_id);
-      ++num_frames_per_rig[frame.RigId()];
+      ++num_frames_of_rig[r][frame.RigId()];
       for (const data_t& data_id : frame.ImageIds()) {
         ++num_images_per_camera[reconstruction.Image(data_id.id).CameraId()];
       }
@@ -81,7 +116,7 @@ void JoinReconstructions(
         source = {r, num_images};
       }
     }
-    for (const auto& [rig_id, num_frames] : num_frames_per_rig) {
+    for (const auto& [rig_id, num_frames] : num_frames_of_rig[r]) {
       auto& source = rig_source[rig_id];
       if (num_frames > source.second) {
         source = {r, num_frames};
@@ -101,48 +136,20 @@ void JoinReconstructions(
       }
     }
     merged->AddRig(rig);
-    // Every community's mapper refined the rig on its own frames, one on
-    // few of them perhaps: the merged rig's sensor poses are the average
-    // of all estimates (in the world frame), weighted by their frames.
-    for (auto& [sensor_id, sensor_from_rig] :
-         merged->Rig(rig_id).NonRefSensors()) {
-      if (!sensor_from_rig) {
-        continue;
-      }
-      const Eigen::Vector4d reference = sensor_from_rig->rotation().coeffs();
-      Eigen::Vector4d rotation_sum = Eigen::Vector4d::Zero();
-      Eigen::Vector3d translation_sum = Eigen::Vector3d::Zero();
-      double weight_sum = 0;
-      for (size_t r = 0; r < reconstructions.size(); ++r) {
-        const auto it = num_frames_of_rig[r].find(rig_id);
-        if (it == num_frames_of_rig[r].end() ||
-            !reconstructions[r]->Rig(rig_id).HasSensorFromRig(sensor_id)) {
-          continue;
-        }
-        const Rigid3d& pose =
-            reconstructions[r]->Rig(rig_id).SensorFromRig(sensor_id);
-        Eigen::Vector4d rotation = pose.rotation().coeffs();
-        if (rotation.dot(reference) < 0) {
-          rotation = -rotation;
-        }
-        const double weight = static_cast<double>(it->second);
-        rotation_sum += weight * rotation;
-        translation_sum += weight * pose.translation();
-        weight_sum += weight;
-      }
-      if (weight_sum > 0) {
-        *sensor_from_rig =
-            Rigid3d(Eigen::Quaterniond(rotation_sum.normalized()),
-                    translation_sum / weight_sum);
-      }
-    }
+    AverageSensorPoses(
+        reconstructions, num_frames_of_rig, rig_id, &merged->Rig(rig_id));
   }
+}
 
-  // Frames and their images, keypoints without points, with their poses.
+// The frames each reconstruction gives and their images (keypoints without
+// points), with their poses.
+void JoinFrames(const std::vector<Reconstruction*>& reconstructions,
+                const FrameSources& frame_sources,
+                Reconstruction* merged) {
   for (size_t r = 0; r < reconstructions.size(); ++r) {
     const Reconstruction& reconstruction = *reconstructions[r];
     for (const frame_t frame_id : reconstruction.RegFrameIds()) {
-      if (!takes_frame(r, frame_id)) {
+      if (!frame_sources.Takes(r, frame_id)) {
         continue;
       }
       const Frame& frame = reconstruction.Frame(frame_id);
@@ -172,15 +179,41 @@ void JoinReconstructions(
       merged->RegisterFrame(frame_id);
     }
   }
+}
 
+}  // namespace
+
+void JoinReconstructions(
+    const std::vector<Reconstruction*>& reconstructions,
+    const std::vector<Sim3d>& world_from_reconstruction,
+    const std::vector<std::unordered_set<image_t>>& owned_image_ids,
+    Reconstruction* merged,
+    std::vector<std::unordered_map<point3D_t, point3D_t>>* point3D_ids) {
+  THROW_CHECK_EQ(reconstructions.size(), world_from_reconstruction.size());
+  THROW_CHECK_EQ(reconstructions.size(), owned_image_ids.size());
+  THROW_CHECK_NOTNULL(merged);
+  THROW_CHECK_NOTNULL(point3D_ids);
+  THROW_CHECK_EQ(merged->NumImages(), 0);
+
+  for (size_t r = 0; r < reconstructions.size(); ++r) {
+    reconstructions[r]->Transform(world_from_reconstruction[r]);
+  }
+  const FrameSources frame_sources(reconstructions, owned_image_ids);
+  JoinCamerasAndRigs(reconstructions, frame_sources, merged);
+  JoinFrames(reconstructions, frame_sources, merged);
+
+  // Each point keeps its observations in the frames its reconstruction
+  // gives.
   point3D_ids->assign(reconstructions.size(), {});
   for (size_t r = 0; r < reconstructions.size(); ++r) {
+    const Reconstruction& reconstruction = *reconstructions[r];
     auto& ids = (*point3D_ids)[r];
-    ids.reserve(reconstructions[r]->NumPoints3D());
-    for (const auto& [point3D_id, point3D] : reconstructions[r]->Points3D()) {
+    ids.reserve(reconstruction.NumPoints3D());
+    for (const auto& [point3D_id, point3D] : reconstruction.Points3D()) {
       Track track;
       for (const TrackElement& track_el : point3D.track.Elements()) {
-        if (owns(r, track_el.image_id)) {
+        if (frame_sources.Takes(
+                r, reconstruction.Image(track_el.image_id).FrameId())) {
           track.AddElement(track_el);
         }
       }
