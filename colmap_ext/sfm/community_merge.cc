@@ -133,7 +133,6 @@ std::unordered_set<image_t> ImagesNotTaken(
   return left_image_ids;
 }
 
-
 }  // namespace
 
 bool CommunityMergeOptions::Check() const {
@@ -262,12 +261,13 @@ void CommunityMerge::AverageSimilarities() {
                               : "dropped");
   }
 
-  false_pairs_ = options_.confirm_rejected_links
-                     ? ConfirmRejectedLinks(similarities_,
-                                            averaging_,
-                                            options_.similarity_averaging,
-                                            options_.rejected_link_max_drift_factor)
-                     : similarities_.false_pairs;
+  false_pairs_ =
+      options_.confirm_rejected_links
+          ? ConfirmRejectedLinks(similarities_,
+                                 averaging_,
+                                 options_.similarity_averaging,
+                                 options_.rejected_link_max_drift_factor)
+          : similarities_.false_pairs;
   if (!false_pairs_.empty()) {
     LOG(INFO) << StringPrintf(
         "%d image pairs between communities support only rejected "
@@ -505,6 +505,106 @@ void CommunityMerge::MergeParts() {
   num_phases_done_ = 3;
 }
 
+// An image left without any pair (all contradicting the merge) cannot be
+// refined: it stays out. (The view graph tells, before the models are
+// joined and released, which images the correspondences will hold.)
+void CommunityMerge::LeaveOutUnpairedImages(
+    const std::unordered_set<std::string>& part_image_names,
+    std::vector<std::unordered_set<image_t>>* owned_image_ids) const {
+  std::unordered_set<image_t> connected_image_ids;
+  for (const ViewGraph::Edge& edge : view_graph_->Edges()) {
+    const image_t image_id1 = view_graph_->ImageIds()[edge.vertex1];
+    const image_t image_id2 = view_graph_->ImageIds()[edge.vertex2];
+    if (part_image_names.count(view_graph_->ImageNames()[edge.vertex1]) &&
+        part_image_names.count(view_graph_->ImageNames()[edge.vertex2]) &&
+        !false_pairs_.count(ImagePairToPairId(image_id1, image_id2))) {
+      connected_image_ids.insert(image_id1);
+      connected_image_ids.insert(image_id2);
+    }
+  }
+  for (std::unordered_set<image_t>& image_ids : *owned_image_ids) {
+    for (auto it = image_ids.begin(); it != image_ids.end();) {
+      if (connected_image_ids.count(*it)) {
+        ++it;
+      } else {
+        LOG(WARNING) << "Image " << communities_.name_of_image.at(*it)
+                     << " has no image pair left in the merged model; it is "
+                        "left out.";
+        it = image_ids.erase(it);
+      }
+    }
+  }
+}
+
+// The pairs of joined points (merged ids) that the kept similarities of
+// the part found to correspond, `point3D_ids` mapping each community's
+// point ids (by its index in the part) to the merged model's.
+std::vector<std::pair<point3D_t, point3D_t>>
+CommunityMerge::PartCorrespondingPoints(
+    const std::vector<int>& part_communities,
+    const std::map<int, size_t>& index_in_part,
+    const std::vector<std::unordered_map<point3D_t, point3D_t>>& point3D_ids)
+    const {
+  std::vector<std::pair<point3D_t, point3D_t>> corresponding_points;
+  for (size_t e = 0; e < similarities_.similarities.size(); ++e) {
+    if (!averaging_.edges[e].kept ||
+        averaging_
+                .part_of_community[similarities_.similarities[e].community1] !=
+            averaging_.part_of_community[part_communities[0]]) {
+      continue;
+    }
+    const auto& ids1 =
+        point3D_ids[index_in_part.at(similarities_.similarities[e].community1)];
+    const auto& ids2 =
+        point3D_ids[index_in_part.at(similarities_.similarities[e].community2)];
+    for (const auto& pair : similarities_.similarities[e].point3D_ids) {
+      const auto it1 = ids1.find(pair.first);
+      const auto it2 = ids2.find(pair.second);
+      if (it1 != ids1.end() && it2 != ids2.end()) {
+        corresponding_points.emplace_back(it1->second, it2->second);
+      }
+    }
+  }
+  return corresponding_points;
+}
+
+// The correspondences of the part's images, without the false pairs, once
+// the communities' models are released and the joined cameras aligned
+// (MergedModelRefiner); every image registered in `merged` must have some.
+std::shared_ptr<const DatabaseCache> CommunityMerge::LoadPartCorrespondences(
+    const std::unordered_set<std::string>& part_image_names,
+    const Reconstruction& merged) const {
+  DatabaseCache::Options database_cache_options;
+  database_cache_options.min_num_matches =
+      static_cast<size_t>(options_.min_num_matches);
+  database_cache_options.ignore_watermarks =
+      options_.incremental_options.ignore_watermarks;
+  database_cache_options.image_names = part_image_names;
+  std::shared_ptr<DatabaseCache> database_cache;
+  {
+    const std::shared_ptr<Database> database =
+        Database::Open(options_.database_path);
+    database_cache = CreateFilteredDatabaseCache(
+        *database,
+        database_cache_options,
+        [this](const image_t image_id1, const image_t image_id2) {
+          return false_pairs_.count(ImagePairToPairId(image_id1, image_id2)) ==
+                 0;
+        });
+  }
+  // Building the correspondence graph grows a vector per keypoint and
+  // then flattens them; the freed vectors would stay resident through the
+  // refinement (see ReleaseFreedMemory).
+  ReleaseFreedMemory();
+  for (const image_t image_id : merged.RegImageIds()) {
+    THROW_CHECK(database_cache->ExistsImage(image_id))
+        << "image " << merged.Image(image_id).Name()
+        << " has no correspondences";
+  }
+  LogMemory("loading the correspondences");
+  return std::shared_ptr<const DatabaseCache>(std::move(database_cache));
+}
+
 // Joins the communities of one part (connected by kept similarities) into
 // one model in the global frame, merges their corresponding points and
 // refines the result on the part's own images plus `extra_image_names`
@@ -545,32 +645,7 @@ std::shared_ptr<Reconstruction> CommunityMerge::MergePart(
       part_image_names.insert(communities_.name_of_image.at(image_id));
     }
   }
-  // An image left without any pair (all contradicting the merge) cannot be
-  // refined: it stays out. (The view graph tells, before the models are
-  // joined and released, which images the correspondences will hold.)
-  std::unordered_set<image_t> connected_image_ids;
-  for (const ViewGraph::Edge& edge : view_graph_->Edges()) {
-    const image_t image_id1 = view_graph_->ImageIds()[edge.vertex1];
-    const image_t image_id2 = view_graph_->ImageIds()[edge.vertex2];
-    if (part_image_names.count(view_graph_->ImageNames()[edge.vertex1]) &&
-        part_image_names.count(view_graph_->ImageNames()[edge.vertex2]) &&
-        !false_pairs_.count(ImagePairToPairId(image_id1, image_id2))) {
-      connected_image_ids.insert(image_id1);
-      connected_image_ids.insert(image_id2);
-    }
-  }
-  for (std::unordered_set<image_t>& image_ids : owned_image_ids) {
-    for (auto it = image_ids.begin(); it != image_ids.end();) {
-      if (connected_image_ids.count(*it)) {
-        ++it;
-      } else {
-        LOG(WARNING) << "Image " << communities_.name_of_image.at(*it)
-                     << " has no image pair left in the merged model; it is "
-                        "left out.";
-        it = image_ids.erase(it);
-      }
-    }
-  }
+  LeaveOutUnpairedImages(part_image_names, &owned_image_ids);
   auto merged = std::make_shared<Reconstruction>();
   std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
   JoinReconstructions(part_models,
@@ -583,25 +658,8 @@ std::shared_ptr<Reconstruction> CommunityMerge::MergePart(
   }
   ReleaseFreedMemory();
 
-  std::vector<std::pair<point3D_t, point3D_t>> corresponding_points;
-  for (size_t e = 0; e < similarities_.similarities.size(); ++e) {
-    if (!averaging_.edges[e].kept ||
-        averaging_.part_of_community[similarities_.similarities[e].community1] !=
-            averaging_.part_of_community[part_communities[0]]) {
-      continue;
-    }
-    const auto& ids1 =
-        point3D_ids[index_in_part.at(similarities_.similarities[e].community1)];
-    const auto& ids2 =
-        point3D_ids[index_in_part.at(similarities_.similarities[e].community2)];
-    for (const auto& pair : similarities_.similarities[e].point3D_ids) {
-      const auto it1 = ids1.find(pair.first);
-      const auto it2 = ids2.find(pair.second);
-      if (it1 != ids1.end() && it2 != ids2.end()) {
-        corresponding_points.emplace_back(it1->second, it2->second);
-      }
-    }
-  }
+  const std::vector<std::pair<point3D_t, point3D_t>> corresponding_points =
+      PartCorrespondingPoints(part_communities, index_in_part, point3D_ids);
   const size_t num_merged_points =
       MergeCorrespondingPoints(corresponding_points, merged.get());
   LOG(INFO) << StringPrintf(
@@ -614,35 +672,7 @@ std::shared_ptr<Reconstruction> CommunityMerge::MergePart(
   // The correspondences, once the communities' models are released and
   // the joined cameras aligned (MergedModelRefiner).
   const auto load_correspondences = [&]() {
-    DatabaseCache::Options database_cache_options;
-    database_cache_options.min_num_matches =
-        static_cast<size_t>(options_.min_num_matches);
-    database_cache_options.ignore_watermarks =
-        options_.incremental_options.ignore_watermarks;
-    database_cache_options.image_names = part_image_names;
-    std::shared_ptr<DatabaseCache> database_cache;
-    {
-      const std::shared_ptr<Database> database =
-          Database::Open(options_.database_path);
-      database_cache = CreateFilteredDatabaseCache(
-          *database,
-          database_cache_options,
-          [this](const image_t image_id1, const image_t image_id2) {
-            return false_pairs_.count(
-                       ImagePairToPairId(image_id1, image_id2)) == 0;
-          });
-    }
-    // Building the correspondence graph grows a vector per keypoint and
-    // then flattens them; the freed vectors would stay resident through the
-    // refinement (see ReleaseFreedMemory).
-    ReleaseFreedMemory();
-    for (const image_t image_id : merged->RegImageIds()) {
-      THROW_CHECK(database_cache->ExistsImage(image_id))
-          << "image " << merged->Image(image_id).Name()
-          << " has no correspondences";
-    }
-    LogMemory("loading the correspondences");
-    return std::shared_ptr<const DatabaseCache>(std::move(database_cache));
+    return LoadPartCorrespondences(part_image_names, *merged);
   };
 
   Timer timer;
@@ -674,7 +704,6 @@ std::shared_ptr<Reconstruction> CommunityMerge::MergePart(
   }
   return merged;
 }
-
 
 CommunityMergeResult MergeCommunities(const CommunityMergeOptions& options,
                                       const CommunityPlan& plan,

@@ -35,10 +35,12 @@
 #include "colmap/controllers/incremental_pipeline.h"
 #include "colmap/scene/reconstruction.h"
 
+#include <map>
 #include <memory>
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
+#include <utility>
 #include <vector>
 
 namespace colmap {
@@ -206,12 +208,24 @@ class CommunityMerge {
   // at least Mapper.min_model_size images, kept as models of their own.
   void KeepSetAsideCommunities(
       std::unordered_set<image_t>* registered_image_ids);
+  // MergePart's steps: the images without a pair left out of the part,
+  // the joined points that correspond, the part's correspondences.
+  void LeaveOutUnpairedImages(
+      const std::unordered_set<std::string>& part_image_names,
+      std::vector<std::unordered_set<image_t>>* owned_image_ids) const;
+  std::vector<std::pair<point3D_t, point3D_t>> PartCorrespondingPoints(
+      const std::vector<int>& part_communities,
+      const std::map<int, size_t>& index_in_part,
+      const std::vector<std::unordered_map<point3D_t, point3D_t>>& point3D_ids)
+      const;
+  std::shared_ptr<const DatabaseCache> LoadPartCorrespondences(
+      const std::unordered_set<std::string>& part_image_names,
+      const Reconstruction& merged) const;
   std::shared_ptr<Reconstruction> MergePart(
       const std::vector<int>& part_communities,
       const std::unordered_set<std::string>& extra_image_names,
       const std::unordered_set<image_t>& taken_image_ids,
-      const std::vector<std::shared_ptr<const Reconstruction>>&
-          offered_models);
+      const std::vector<std::shared_ptr<const Reconstruction>>& offered_models);
 
   const CommunityMergeOptions options_;
   const CommunityPlan plan_;
