@@ -52,6 +52,28 @@ class JoinReconstructionsTest : public ::testing::Test {
                                    Eigen::Vector3d(0, 10, 0))};
   }
 
+  // Community c's model (c = 0, 1) in its own frame, with the images it
+  // registered.
+  Reconstruction Community(const size_t c) const {
+    return CommunityModel(scene_.ground_truth,
+                          c == 0 ? images1_ : images2_,
+                          community_from_world_[c]);
+  }
+
+  // The two communities' models joined in the world frame.
+  void Join(Reconstruction* model1,
+            Reconstruction* model2,
+            Reconstruction* merged,
+            std::vector<std::unordered_map<point3D_t, point3D_t>>* point3D_ids)
+      const {
+    JoinReconstructions(
+        {model1, model2},
+        {Inverse(community_from_world_[0]), Inverse(community_from_world_[1])},
+        {owned1_, owned2_},
+        merged,
+        point3D_ids);
+  }
+
   SyntheticScene scene_;
   std::unordered_set<image_t> owned1_;
   std::unordered_set<image_t> owned2_;
@@ -61,22 +83,15 @@ class JoinReconstructionsTest : public ::testing::Test {
 };
 
 TEST_F(JoinReconstructionsTest, RecoversTheScene) {
-  Reconstruction model1 =
-      CommunityModel(scene_.ground_truth, images1_, community_from_world_[0]);
-  Reconstruction model2 =
-      CommunityModel(scene_.ground_truth, images2_, community_from_world_[1]);
+  Reconstruction model1 = Community(0);
+  Reconstruction model2 = Community(1);
   // Community 2 refined the shared camera differently.
   const camera_t camera_id = model2.Cameras().begin()->first;
   model2.Camera(camera_id).params[0] *= 1.01;
 
   Reconstruction merged;
   std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
-  JoinReconstructions(
-      {&model1, &model2},
-      {Inverse(community_from_world_[0]), Inverse(community_from_world_[1])},
-      {owned1_, owned2_},
-      &merged,
-      &point3D_ids);
+  Join(&model1, &model2, &merged, &point3D_ids);
 
   EXPECT_EQ(merged.NumRegImages(), scene_.ground_truth.NumRegImages());
   // Every image's pose is the truth's.
@@ -116,18 +131,11 @@ TEST_F(JoinReconstructionsTest, RecoversTheScene) {
 }
 
 TEST_F(JoinReconstructionsTest, MergesCorrespondingPoints) {
-  Reconstruction model1 =
-      CommunityModel(scene_.ground_truth, images1_, community_from_world_[0]);
-  Reconstruction model2 =
-      CommunityModel(scene_.ground_truth, images2_, community_from_world_[1]);
+  Reconstruction model1 = Community(0);
+  Reconstruction model2 = Community(1);
   Reconstruction merged;
   std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
-  JoinReconstructions(
-      {&model1, &model2},
-      {Inverse(community_from_world_[0]), Inverse(community_from_world_[1])},
-      {owned1_, owned2_},
-      &merged,
-      &point3D_ids);
+  Join(&model1, &model2, &merged, &point3D_ids);
 
   // The two communities' copies of the same ground-truth point correspond.
   std::vector<std::pair<point3D_t, point3D_t>> pairs;
@@ -154,8 +162,7 @@ TEST_F(JoinReconstructionsTest, MergesCorrespondingPoints) {
 
 TEST_F(JoinReconstructionsTest, RestrictToImagesDropsBorrowedImages) {
   // Community 1's model with the three images it borrowed from community 2.
-  auto model1 = std::make_shared<Reconstruction>(
-      CommunityModel(scene_.ground_truth, images1_, community_from_world_[0]));
+  auto model1 = std::make_shared<Reconstruction>(Community(0));
   const std::shared_ptr<Reconstruction> own = RestrictToImages(owned1_, model1);
 
   ASSERT_NE(own, model1);
@@ -178,8 +185,7 @@ TEST_F(JoinReconstructionsTest, RestrictToImagesDropsBorrowedImages) {
   EXPECT_LE(own->NumPoints3D(), model1->NumPoints3D());
 
   // A model of its own images only is returned as it is.
-  auto model2 = std::make_shared<Reconstruction>(
-      CommunityModel(scene_.ground_truth, images2_, community_from_world_[1]));
+  auto model2 = std::make_shared<Reconstruction>(Community(1));
   EXPECT_EQ(RestrictToImages(owned2_, model2), model2);
 }
 
