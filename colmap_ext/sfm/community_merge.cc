@@ -403,9 +403,6 @@ void CommunityMerge::MergeParts() {
   // The images the models written registered (which later parts and
   // communities leave out).
   std::unordered_set<image_t> registered_image_ids;
-  const auto keep_model = [&](std::shared_ptr<Reconstruction> model) {
-    KeepModel(std::move(model), &registered_image_ids);
-  };
   for (int part = 0; part < averaging_.NumParts(); ++part) {
     size_t num_left_images = 0;
     const std::vector<int> part_communities =
@@ -446,7 +443,7 @@ void CommunityMerge::MergeParts() {
             c);
         continue;
       }
-      keep_model(std::move(model));
+      KeepModel(std::move(model), &registered_image_ids);
       continue;
     }
     try {
@@ -479,7 +476,7 @@ void CommunityMerge::MergeParts() {
             part);
         continue;
       }
-      keep_model(std::move(merged));
+      KeepModel(std::move(merged), &registered_image_ids);
     } catch (const std::exception& error) {
       // Nothing is lost: the part's communities, as their stage wrote them,
       // become models of their own.
@@ -489,7 +486,7 @@ void CommunityMerge::MergeParts() {
         std::shared_ptr<Reconstruction> model =
             LeftModel(c, /*model=*/nullptr, registered_image_ids);
         if (model->NumRegImages() >= 2) {
-          keep_model(std::move(model));
+          KeepModel(std::move(model), &registered_image_ids);
         }
       }
     }
