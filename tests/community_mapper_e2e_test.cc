@@ -7,6 +7,7 @@
 #include "colmap_ext/scene/model_evaluation.h"
 #include "colmap_ext/util/testing.h"
 
+#include "colmap/scene/database.h"
 #include "colmap/scene/reconstruction.h"
 #include "colmap/util/file.h"
 #include "colmap/util/logging.h"
@@ -549,6 +550,59 @@ TEST(CommunityMapperRigs, FramesStayWholeAndTheRigHolds) {
   // The merged rig averages the communities' rigs by their frames and the
   // last adjustment refines it on all of them: within 1% of the baseline.
   EXPECT_LT(evaluation.rig_baseline_error_fraction, 0.01);
+}
+
+// A rig the user holds (--Mapper.constant_rig_list_path, its calibration
+// known, as rig_configurator writes it) is held by every community's mapper
+// and by the merge: the merged model has it as the database does.
+TEST(CommunityMapperRigs, HeldRigStaysAsTheDatabaseHasIt) {
+  const std::filesystem::path test_dir = CreateTestFolder();
+  const Scene scene = GenerateScene(
+      test_dir / "scene",
+      "--num_clusters 3 --num_images_per_cluster 24 --num_images_per_link 14 "
+      "--num_rig_cameras 2 --rig_baseline 0.3 --keypoint_noise 0.7 --seed 1");
+  std::vector<Rig> rigs;
+  for (const Rig& rig : Database::Open(scene.DatabasePath())->ReadAllRigs()) {
+    if (rig.NumSensors() > 1) {
+      rigs.push_back(rig);
+    }
+  }
+  ASSERT_EQ(rigs.size(), 1);
+  const Rig& rig = rigs[0];
+  const std::filesystem::path rig_list = test_dir / "constant_rigs.txt";
+  std::ofstream(rig_list) << rig.RigId() << "\n";
+  const std::filesystem::path output_path = test_dir / "sparse";
+  std::string log;
+  ASSERT_EQ(
+      RunMapper("community_mapper",
+                scene,
+                output_path,
+                &log,
+                "--Mapper.constant_rig_list_path " + ShellQuote(rig_list)),
+      0)
+      << log;
+  ASSERT_EQ(ModelPaths(output_path).size(), 1) << log;
+  std::set<int> communities;
+  for (const auto& [name, community] :
+       ReadClusters(output_path / "communities.txt")) {
+    communities.insert(community);
+  }
+  ASSERT_GE(communities.size(), 2) << "the merge has nothing to hold";
+  Reconstruction model;
+  model.Read(output_path / "0");
+  ASSERT_TRUE(model.ExistsRig(rig.RigId()));
+  for (const auto& [sensor_id, sensor_from_rig] : rig.NonRefSensors()) {
+    ASSERT_TRUE(sensor_from_rig.has_value());
+    const Rigid3d& merged = model.Rig(rig.RigId()).SensorFromRig(sensor_id);
+    // Its direction and length as held; the model's scale is its own
+    // (Reconstruction::Normalize scales rigs with the model).
+    EXPECT_LT((merged.translation().normalized() -
+               sensor_from_rig->translation().normalized())
+                  .norm(),
+              1e-9);
+    EXPECT_LT(merged.rotation().angularDistance(sensor_from_rig->rotation()),
+              1e-9);
+  }
 }
 
 // Runs community_mapper on the suite's scene with `flags`, into a folder of

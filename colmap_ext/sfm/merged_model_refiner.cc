@@ -67,11 +67,12 @@ ceres::Solver::Options RefinementSolverOptions(
 // COLMAP's mapper fixes it (one frame, one coordinate of a second), over all
 // observations or, with `refinement.reduced_adjustment`, on the selected
 // tracks followed by the other points with the cameras fixed (where the
-// selected tracks hold few enough of the observations), the intrinsics of
-// `constant_cameras` held.
+// selected tracks hold few enough of the observations), what `incremental`
+// holds held: the intrinsics of its constant_cameras, the sensor poses of
+// its constant_rigs.
 bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
                         const MergedModelRefinementOptions& refinement,
-                        const std::unordered_set<camera_t>& constant_cameras,
+                        const IncrementalMapper::Options& incremental,
                         ObservationManager* observation_manager,
                         Reconstruction* reconstruction) {
   const size_t num_reg_images = reconstruction->NumRegImages();
@@ -97,8 +98,12 @@ bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
     }
   }
   if (!selected.empty()) {
-    const bool usable = AdjustCamerasOnTracks(
-        options, solver_options, selected, reconstruction, constant_cameras);
+    const bool usable = AdjustCamerasOnTracks(options,
+                                              solver_options,
+                                              selected,
+                                              reconstruction,
+                                              incremental.constant_cameras,
+                                              incremental.constant_rigs);
     Timer timer;
     timer.Start();
     const size_t num_refined = RefinePointsWithFixedCameras(
@@ -110,8 +115,12 @@ bool AdjustGlobalBundle(const BundleAdjustmentOptions& options,
     return usable;
   }
 
-  const ceres::Solver::Summary summary = AdjustAllObservations(
-      options, solver_options, reconstruction, constant_cameras);
+  const ceres::Solver::Summary summary =
+      AdjustAllObservations(options,
+                            solver_options,
+                            reconstruction,
+                            incremental.constant_cameras,
+                            incremental.constant_rigs);
   if (summary.num_residuals <= 0) {
     return false;
   }
@@ -136,10 +145,11 @@ BundleAdjustmentOptions RobustOptions(BundleAdjustmentOptions options) {
 // Bundle adjusts all cameras of `reconstruction` on the points seen from
 // two communities (or from an image of none) and, per image, the
 // `alignment_max_points_per_image` points with the longest tracks (those
-// that tie the most images together), intrinsics fixed. The other points
-// are left as they were.
+// that tie the most images together), intrinsics fixed, as are the sensor
+// poses of `constant_rigs`. The other points are left as they were.
 void AlignCameras(const MergedModelRefinementOptions& options,
                   const BundleAdjustmentOptions& ba_options,
+                  const std::unordered_set<rig_t>& constant_rigs,
                   const std::unordered_map<image_t, int>& community_of_image,
                   ObservationManager* observation_manager,
                   Reconstruction* reconstruction) {
@@ -195,7 +205,9 @@ void AlignCameras(const MergedModelRefinementOptions& options,
       alignment_options,
       RefinementSolverOptions(alignment_options, options, *reconstruction),
       kept,
-      reconstruction);
+      reconstruction,
+      /*constant_cameras=*/{},
+      constant_rigs);
 }
 
 }  // namespace
@@ -277,6 +289,7 @@ void MergedModelRefiner::Align() {
     AlignCameras(options_,
                  options_.robust_first_adjustment ? RobustOptions(ba_options_)
                                                   : ba_options_,
+                 incremental_.constant_rigs,
                  community_of_image_,
                  &observation_manager,
                  reconstruction_.get());
@@ -645,7 +658,7 @@ void MergedModelRefiner::AdjustInRounds() {
     AdjustGlobalBundle(
         ba_options_,
         options_,
-        incremental_.constant_cameras,
+        incremental_,
         mapper_ ? &mapper_->ObservationManager() : observation_manager_.get(),
         reconstruction_.get());
     reconstruction_->Normalize();
@@ -724,7 +737,7 @@ void MergedModelRefiner::AdjustLastTime() {
   full_options.reduced_adjustment = false;
   AdjustGlobalBundle(ba_options_,
                      full_options,
-                     incremental_.constant_cameras,
+                     incremental_,
                      observation_manager_.get(),
                      reconstruction_.get());
   // As after every adjustment before (and the incremental mapper's last),

@@ -41,10 +41,11 @@ TrackRank RankOf(const TrackSelectionOptions& options,
 
 // The configuration of COLMAP's mapper's global adjustment: every image of
 // the registered frames, the gauge held by two frames, the intrinsics of
-// `constant_cameras` held.
+// `constant_cameras` and the sensor poses of `constant_rigs` held.
 BundleAdjustmentConfig MappersConfig(
     const Reconstruction& reconstruction,
-    const std::unordered_set<camera_t>& constant_cameras) {
+    const std::unordered_set<camera_t>& constant_cameras,
+    const std::unordered_set<rig_t>& constant_rigs) {
   BundleAdjustmentConfig config;
   for (const frame_t frame_id : reconstruction.RegFrameIds()) {
     for (const data_t& data_id : reconstruction.Frame(frame_id).ImageIds()) {
@@ -52,6 +53,14 @@ BundleAdjustmentConfig MappersConfig(
       const camera_t camera_id = reconstruction.Image(data_id.id).CameraId();
       if (constant_cameras.count(camera_id) > 0) {
         config.SetConstantCamIntrinsics(camera_id);
+      }
+    }
+  }
+  for (const rig_t rig_id : constant_rigs) {
+    if (reconstruction.ExistsRig(rig_id)) {
+      for (const auto& [sensor_id, _] :
+           reconstruction.Rig(rig_id).NonRefSensors()) {
+        config.SetConstantSensorFromRigPose(sensor_id);
       }
     }
   }
@@ -185,25 +194,27 @@ ceres::Solver::Summary AdjustAllObservations(
     const BundleAdjustmentOptions& ba_options,
     ceres::Solver::Options solver_options,
     Reconstruction* reconstruction,
-    const std::unordered_set<camera_t>& constant_cameras) {
+    const std::unordered_set<camera_t>& constant_cameras,
+    const std::unordered_set<rig_t>& constant_rigs) {
   THROW_CHECK_NOTNULL(reconstruction);
   if (reconstruction->NumRegImages() < 2) {
     ceres::Solver::Summary summary;
     summary.message = "fewer than two registered images";
     return summary;
   }
-  return SolveOnCeres(ba_options,
-                      std::move(solver_options),
-                      MappersConfig(*reconstruction, constant_cameras),
-                      reconstruction);
+  return SolveOnCeres(
+      ba_options,
+      std::move(solver_options),
+      MappersConfig(*reconstruction, constant_cameras, constant_rigs),
+      reconstruction);
 }
 
-bool AdjustCamerasOnTracks(
-    const BundleAdjustmentOptions& ba_options,
-    ceres::Solver::Options solver_options,
-    const std::unordered_set<point3D_t>& point3D_ids,
-    Reconstruction* reconstruction,
-    const std::unordered_set<camera_t>& constant_cameras) {
+bool AdjustCamerasOnTracks(const BundleAdjustmentOptions& ba_options,
+                           ceres::Solver::Options solver_options,
+                           const std::unordered_set<point3D_t>& point3D_ids,
+                           Reconstruction* reconstruction,
+                           const std::unordered_set<camera_t>& constant_cameras,
+                           const std::unordered_set<rig_t>& constant_rigs) {
   THROW_CHECK_NOTNULL(reconstruction);
   if (reconstruction->NumRegImages() < 2 || point3D_ids.empty()) {
     return false;
@@ -211,7 +222,7 @@ bool AdjustCamerasOnTracks(
   Timer timer;
   timer.Start();
   BundleAdjustmentConfig config =
-      MappersConfig(*reconstruction, constant_cameras);
+      MappersConfig(*reconstruction, constant_cameras, constant_rigs);
   for (const auto& [point3D_id, _] : reconstruction->Points3D()) {
     if (point3D_ids.count(point3D_id) == 0) {
       config.IgnorePoint(point3D_id);

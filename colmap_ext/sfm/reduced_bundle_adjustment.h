@@ -90,7 +90,8 @@ bool AdjustCamerasOnTracks(
     ceres::Solver::Options solver_options,
     const std::unordered_set<point3D_t>& point3D_ids,
     Reconstruction* reconstruction,
-    const std::unordered_set<camera_t>& constant_cameras = {});
+    const std::unordered_set<camera_t>& constant_cameras = {},
+    const std::unordered_set<rig_t>& constant_rigs = {});
 
 // COLMAP's global bundle adjustment, the counterpart of the above over all
 // observations: all registered frames, the intrinsics of their cameras and
@@ -98,15 +99,16 @@ bool AdjustCamerasOnTracks(
 // `ba_options`' loss (`refine_rig_from_world` false holds every pose), the
 // gauge fixed as above, solved on Ceres with `solver_options` as they are
 // (num_threads -1 takes all cores). In both, the intrinsics of
-// `constant_cameras` are held (as IncrementalMapper::Options'
-// constant_cameras). Returns Ceres' summary (with fewer than
-// two registered images or no observation, one that is not usable, after no
-// iteration).
+// `constant_cameras` and the sensor poses of `constant_rigs` are held (as
+// IncrementalMapper::Options' constant_cameras and constant_rigs). Returns
+// Ceres' summary (with fewer than two registered images or no observation, one
+// that is not usable, after no iteration).
 ceres::Solver::Summary AdjustAllObservations(
     const BundleAdjustmentOptions& ba_options,
     ceres::Solver::Options solver_options,
     Reconstruction* reconstruction,
-    const std::unordered_set<camera_t>& constant_cameras = {});
+    const std::unordered_set<camera_t>& constant_cameras = {},
+    const std::unordered_set<rig_t>& constant_rigs = {});
 
 // Refines every point of `reconstruction` outside `excluded_point3D_ids`
 // with all cameras and poses fixed (least squares), in problems of at most

@@ -35,12 +35,12 @@ Reconstruction GroundTruth() {
 
 // COLMAP's synthetic scene (every point seen by every image), noisy
 // keypoints, well conditioned: what a bundle adjustment converges to is
-// close to the truth.
-Reconstruction WellConditionedGroundTruth() {
+// close to the truth. One rig of `num_cameras` cameras.
+Reconstruction WellConditionedGroundTruth(const int num_cameras = 1) {
   SetPRNGSeed(3);
   SyntheticDatasetOptions options;
   options.num_rigs = 1;
-  options.num_cameras_per_rig = 1;
+  options.num_cameras_per_rig = num_cameras;
   options.num_frames_per_rig = 15;
   options.num_points3D = 2000;
   Reconstruction ground_truth;
@@ -297,6 +297,56 @@ TEST(AdjustAllObservations, HoldsTheConstantCameras) {
   EXPECT_LT(
       std::abs(model.Camera(camera_id).MeanFocalLength() - true_focal_length),
       0.01 * true_focal_length);
+}
+
+TEST(AdjustAllObservations, HoldsTheConstantRigs) {
+  // A two-camera rig whose second camera is placed a fifth of the baseline
+  // off.
+  const Reconstruction ground_truth =
+      WellConditionedGroundTruth(/*num_cameras=*/2);
+  const rig_t rig_id = ground_truth.Rigs().begin()->first;
+  ASSERT_EQ(ground_truth.Rig(rig_id).NonRefSensors().size(), 1);
+  const sensor_t sensor_id =
+      ground_truth.Rig(rig_id).NonRefSensors().begin()->first;
+  const Rigid3d true_sensor_from_rig =
+      ground_truth.Rig(rig_id).SensorFromRig(sensor_id);
+  const double baseline = true_sensor_from_rig.translation().norm();
+  ASSERT_GT(baseline, 0);
+  Reconstruction model = ground_truth;
+  model.Rig(rig_id).SensorFromRig(sensor_id).translation() +=
+      Eigen::Vector3d(0.2 * baseline, 0, 0);
+  model.UpdatePoint3DErrors();
+  const Rigid3d perturbed = model.Rig(rig_id).SensorFromRig(sensor_id);
+  const BundleAdjustmentOptions ba_options = AdjustmentOptions();
+  ASSERT_TRUE(ba_options.refine_sensor_from_rig);
+
+  Reconstruction held = model;
+  ASSERT_TRUE(AdjustAllObservations(ba_options,
+                                    ba_options.ceres->solver_options,
+                                    &held,
+                                    /*constant_cameras=*/{},
+                                    /*constant_rigs=*/{rig_id})
+                  .IsSolutionUsable());
+  EXPECT_EQ(held.Rig(rig_id).SensorFromRig(sensor_id).translation(),
+            perturbed.translation());
+  Reconstruction held_on_tracks = model;
+  ASSERT_TRUE(AdjustCamerasOnTracks(ba_options,
+                                    ba_options.ceres->solver_options,
+                                    SelectBundleTracks({}, model),
+                                    &held_on_tracks,
+                                    /*constant_cameras=*/{},
+                                    /*constant_rigs=*/{rig_id}));
+  EXPECT_EQ(held_on_tracks.Rig(rig_id).SensorFromRig(sensor_id).translation(),
+            perturbed.translation());
+
+  // Not held, the adjustment moves the camera back most of the way.
+  ASSERT_TRUE(AdjustAllObservations(
+                  ba_options, ba_options.ceres->solver_options, &model)
+                  .IsSolutionUsable());
+  EXPECT_LT((model.Rig(rig_id).SensorFromRig(sensor_id).translation() -
+             true_sensor_from_rig.translation())
+                .norm(),
+            0.05 * baseline);
 }
 
 TEST(RefinePointsWithFixedCameras, LeavesCamerasAndExcludedPointsAlone) {
