@@ -187,6 +187,11 @@ FAMILIES = {
     "walkway": dict(num_clusters=3, num_images_per_cluster=60,
                     num_images_per_link=80, close_loop=1),
 }
+# The clean walkway loop with a third of the points along its walkways:
+# links between walkway communities rest on few points, so that the
+# averaging has links to drop (run as draws: --draws N walkway_thin).
+SCENES["walkway_thin"] = dict(FAMILIES["walkway"], num_points_per_link=400,
+                              **CLEAN)
 for family, knobs in FAMILIES.items():
     SCENES[family + "_clean"] = dict(knobs, **CLEAN)
     SCENES[family + "_noisy"] = dict(knobs, **NOISY)
