@@ -64,7 +64,8 @@ tarball_matches() {
   [ -f "$file" ] || return 1
   echo "$sha256  $file" | sha256sum --check --status 2>/dev/null && return 0
   [ "$(source_digest "$file" || true)" = "$digest" ] || return 1
-  echo "$file: packed otherwise than the checked tarball, the same sources"
+  echo "${file%.part}: packed otherwise than the checked tarball, the same" \
+    "sources"
 }
 
 missing=()
@@ -97,7 +98,8 @@ for entry in "${TARBALLS[@]}"; do
   if ! tarball_matches "$target.part" "$sha256" "$digest"; then
     rm -f "$target.part"
     echo "error: $name has neither the expected SHA256 $sha256 nor the" \
-      "expected sources (digest $digest); delete it and try again" >&2
+      "expected sources (digest $digest); it was not kept: check" \
+      "UPSTREAM_URL_PREFIX or ../shared/third_party and try again" >&2
     exit 1
   fi
   mv "$target.part" "$target"
