@@ -192,6 +192,10 @@ FAMILIES = {
 # averaging has links to drop (run as draws: --draws N walkway_thin).
 SCENES["walkway_thin"] = dict(FAMILIES["walkway"], num_points_per_link=400,
                               **CLEAN)
+# Four landmark clusters of 60 joined by walkways of 60 into one clean loop
+# (480 images).
+SCENES["walkway_four"] = dict(FAMILIES["walkway"], num_clusters=4,
+                              num_images_per_link=60, **CLEAN)
 for family, knobs in FAMILIES.items():
     SCENES[family + "_clean"] = dict(knobs, **CLEAN)
     SCENES[family + "_noisy"] = dict(knobs, **NOISY)
