@@ -511,16 +511,18 @@ TEST(CommunityMapperComponents, EachComponentIsItsOwnModel) {
   EXPECT_NE(log.find("in 2 model(s)"), std::string::npos) << log;
 }
 
-// A scene photographed by a two-camera rig (one frame, one pose, per
-// snapshot of both cameras): the partition keeps a frame's images in one
-// community, the merge moves frames whole, and the merged model keeps the
-// rig as the truth has it.
+// A loop photographed by a two-camera rig, 0.3 apart (one frame, one pose,
+// per snapshot of both cameras; 114 frames).
+constexpr char kRigSceneFlags[] =
+    "--num_clusters 3 --num_images_per_cluster 24 --num_images_per_link 14 "
+    "--num_rig_cameras 2 --rig_baseline 0.3 --keypoint_noise 0.7 --seed 1";
+
+// A scene photographed by a two-camera rig: the partition keeps a frame's
+// images in one community, the merge moves frames whole, and the merged model
+// keeps the rig as the truth has it.
 TEST(CommunityMapperRigs, FramesStayWholeAndTheRigHolds) {
   const std::filesystem::path test_dir = CreateTestFolder();
-  const Scene scene = GenerateScene(
-      test_dir / "scene",
-      "--num_clusters 3 --num_images_per_cluster 24 --num_images_per_link 14 "
-      "--num_rig_cameras 2 --rig_baseline 0.3 --keypoint_noise 0.7 --seed 1");
+  const Scene scene = GenerateScene(test_dir / "scene", kRigSceneFlags);
   const std::filesystem::path output_path = test_dir / "sparse";
   std::string log;
   ASSERT_EQ(RunMapper("community_mapper", scene, output_path, &log), 0) << log;
@@ -557,10 +559,7 @@ TEST(CommunityMapperRigs, FramesStayWholeAndTheRigHolds) {
 // and by the merge: the merged model has it as the database does.
 TEST(CommunityMapperRigs, HeldRigStaysAsTheDatabaseHasIt) {
   const std::filesystem::path test_dir = CreateTestFolder();
-  const Scene scene = GenerateScene(
-      test_dir / "scene",
-      "--num_clusters 3 --num_images_per_cluster 24 --num_images_per_link 14 "
-      "--num_rig_cameras 2 --rig_baseline 0.3 --keypoint_noise 0.7 --seed 1");
+  const Scene scene = GenerateScene(test_dir / "scene", kRigSceneFlags);
   std::vector<Rig> rigs;
   for (const Rig& rig : Database::Open(scene.DatabasePath())->ReadAllRigs()) {
     if (rig.NumSensors() > 1) {
