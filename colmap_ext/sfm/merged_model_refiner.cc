@@ -324,6 +324,9 @@ void MergedModelRefiner::BeginMapper() {
 void MergedModelRefiner::StartMapper(
     std::shared_ptr<const DatabaseCache> database_cache) {
   correspondence_graph_ = database_cache->CorrespondenceGraph();
+  if (database_cameras_.empty()) {
+    database_cameras_ = database_cache->Cameras();
+  }
   mapper_ = std::make_unique<IncrementalMapper>(std::move(database_cache));
   mapper_->BeginReconstruction(reconstruction_);
 }
@@ -404,11 +407,11 @@ size_t MergedModelRefiner::RegisterRemainingImages(const bool log_none) {
       const int num_filterings =
           filterings == num_filterings_.end() ? 0 : filterings->second;
       if (num_filterings < 3 &&
-          mapper_->RegisterNextImage(incremental_, image_id)) {
+          mapper_->RegisterNextImage(incremental_, image_id) &&
+          HoldCamerasFilteredTwice(image_id)) {
         // The image registers its frame: all the frame's images are
         // triangulated.
         const Frame& frame = *reconstruction_->Image(image_id).FramePtr();
-        HoldCamerasFilteredTwice(frame);
         for (const data_t& data_id : frame.ImageIds()) {
           mapper_->TriangulateImage(triangulation_, data_id.id);
         }
@@ -615,27 +618,55 @@ void MergedModelRefiner::FilterFrames() {
   }
 }
 
-void MergedModelRefiner::HoldCamerasFilteredTwice(const Frame& frame) {
+bool MergedModelRefiner::HoldCamerasFilteredTwice(const image_t image_id) {
   // An image filtered twice has a camera the adjustments cannot estimate
   // from what the model sees of it (on an open chain with a camera per
   // image, a focal length that shrank to a few dozen pixels, twice). Its
   // camera is then estimated once more, as it registers, from its matches
   // to the model's points, and held from there on, as the mapper holds the
-  // cameras a user fixes (Mapper.constant_cameras); filtered a third time,
-  // the image is not registered again.
-  for (const data_t& data_id : frame.ImageIds()) {
+  // cameras a user fixes (Mapper.constant_cameras). Where that estimate is
+  // implausible too, the frame registers again with the database's camera
+  // held instead. Filtered a third time, the image is not registered again.
+  const frame_t frame_id = reconstruction_->Image(image_id).FrameId();
+  bool implausible = false;
+  for (const data_t& data_id : reconstruction_->Frame(frame_id).ImageIds()) {
     const auto filterings = num_filterings_.find(data_id.id);
-    if (filterings != num_filterings_.end() && filterings->second == 2) {
-      const camera_t camera_id = reconstruction_->Image(data_id.id).CameraId();
-      if (incremental_.constant_cameras.insert(camera_id).second) {
-        LOG(INFO) << StringPrintf(
-            "%s: its camera came out implausible twice; it is held as the "
-            "image registers again (focal length %.1f)",
-            reconstruction_->Image(data_id.id).Name().c_str(),
-            reconstruction_->Image(data_id.id).CameraPtr()->MeanFocalLength());
-      }
+    if (filterings == num_filterings_.end() || filterings->second != 2) {
+      continue;
+    }
+    const Image& image = reconstruction_->Image(data_id.id);
+    Camera& camera = *image.CameraPtr();
+    if (!incremental_.constant_cameras.insert(camera.camera_id).second) {
+      continue;
+    }
+    if (camera.HasBogusParams(incremental_.min_focal_length_ratio,
+                              incremental_.max_focal_length_ratio,
+                              incremental_.max_extra_param)) {
+      LOG(INFO) << StringPrintf(
+          "%s: its camera came out implausible twice and again as it "
+          "registered (focal length %.1f); it registers with the database's "
+          "camera, held",
+          image.Name().c_str(),
+          camera.MeanFocalLength());
+      camera.params = database_cameras_.at(camera.camera_id).params;
+      implausible = true;
+    } else {
+      LOG(INFO) << StringPrintf(
+          "%s: its camera came out implausible twice; it is held as the "
+          "image registered (focal length %.1f)",
+          image.Name().c_str(),
+          camera.MeanFocalLength());
     }
   }
+  if (!implausible) {
+    return true;
+  }
+  // The frame's pose was estimated with the implausible camera.
+  mapper_->ObservationManager().DeRegisterFrame(frame_id);
+  // The mapper's per-camera counts learn of it.
+  mapper_->EndReconstruction(/*discard=*/false);
+  mapper_->BeginReconstruction(reconstruction_);
+  return mapper_->RegisterNextImage(incremental_, image_id);
 }
 
 void MergedModelRefiner::AdjustInRounds() {

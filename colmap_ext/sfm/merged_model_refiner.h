@@ -231,9 +231,11 @@ class MergedModelRefiner {
   // registration, until few observations change.
   void AdjustInRounds();
   void DeregisterMisplacedImages();
-  // Holds the cameras of the frame's images filtered twice for an
-  // implausible camera (the frame just registered).
-  void HoldCamerasFilteredTwice(const Frame& frame);
+  // Holds the cameras of the images filtered twice for an implausible
+  // camera in the frame of `image_id`, just registered; where the
+  // registration's estimate is implausible too, the frame registers again
+  // with the database's camera. Whether the frame is registered.
+  bool HoldCamerasFilteredTwice(image_t image_id);
   // Registers the frames deregistered as placed apart from their matches
   // that were not registered again, where they were.
   void RestoreFramesApart();
@@ -276,6 +278,8 @@ class MergedModelRefiner {
   // How often each image was filtered for an implausible camera (see
   // FilterFrames).
   std::unordered_map<image_t, int> num_filterings_;
+  // The cameras as the database has them (HoldCamerasFilteredTwice).
+  std::unordered_map<camera_t, Camera> database_cameras_;
   // Per offered model: registered as a block, and the images it shared with
   // the model at the last try of this round (a try with no new one is not
   // repeated).
