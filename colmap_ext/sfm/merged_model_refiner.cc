@@ -324,9 +324,6 @@ void MergedModelRefiner::BeginMapper() {
 void MergedModelRefiner::StartMapper(
     std::shared_ptr<const DatabaseCache> database_cache) {
   correspondence_graph_ = database_cache->CorrespondenceGraph();
-  if (database_cameras_.empty()) {
-    database_cameras_ = database_cache->Cameras();
-  }
   mapper_ = std::make_unique<IncrementalMapper>(std::move(database_cache));
   mapper_->BeginReconstruction(reconstruction_);
 }
@@ -635,7 +632,7 @@ bool MergedModelRefiner::HoldCamerasFilteredTwice(const image_t image_id) {
       continue;
     }
     const Image& image = reconstruction_->Image(data_id.id);
-    Camera& camera = *image.CameraPtr();
+    const Camera& camera = *image.CameraPtr();
     if (!incremental_.constant_cameras.insert(camera.camera_id).second) {
       continue;
     }
@@ -648,7 +645,6 @@ bool MergedModelRefiner::HoldCamerasFilteredTwice(const image_t image_id) {
           "camera, held",
           image.Name().c_str(),
           camera.MeanFocalLength());
-      camera.params = database_cameras_.at(camera.camera_id).params;
       implausible = true;
     } else {
       LOG(INFO) << StringPrintf(
@@ -661,7 +657,9 @@ bool MergedModelRefiner::HoldCamerasFilteredTwice(const image_t image_id) {
   if (!implausible) {
     return true;
   }
-  // The frame's pose was estimated with the implausible camera.
+  // The frame's pose was estimated with the implausible camera. Registering
+  // again, the mapper resets an implausible camera to the database's, and
+  // holds it there (IncrementalMapper::RegisterNextImage).
   mapper_->ObservationManager().DeRegisterFrame(frame_id);
   // The mapper's per-camera counts learn of it.
   mapper_->EndReconstruction(/*discard=*/false);

@@ -278,8 +278,6 @@ class MergedModelRefiner {
   // How often each image was filtered for an implausible camera (see
   // FilterFrames).
   std::unordered_map<image_t, int> num_filterings_;
-  // The cameras as the database has them (HoldCamerasFilteredTwice).
-  std::unordered_map<camera_t, Camera> database_cameras_;
   // Per offered model: registered as a block, and the images it shared with
   // the model at the last try of this round (a try with no new one is not
   // repeated).
