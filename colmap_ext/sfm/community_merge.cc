@@ -256,9 +256,11 @@ void CommunityMerge::AverageSimilarities() {
         report.kept           ? "kept"
         : report.contradicted ? "dropped before the averaging (the images "
                                 "both models registered contradict it)"
-        : report.unconfirmed  ? "dropped (on no cycle, and the images both "
-                                "models registered do not confirm it)"
-                              : "dropped");
+        : report.unconfirmed
+            ? "dropped (on no cycle, and the images both "
+              "models registered do not confirm it)"
+            : "dropped (the residuals of the averaging that dropped it, "
+              "with it in)");
   }
 
   false_pairs_ =
