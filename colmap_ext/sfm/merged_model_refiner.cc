@@ -363,11 +363,9 @@ void MergedModelRefiner::RegisterOfferedBlocks() {
     }
     block_registered_[k] = true;
     ApplyBlockRegistration(model, block, reconstruction_.get());
-    // The mapper learns of the images as registered as when it begins a
-    // reconstruction (its per-camera counts); then they are triangulated
-    // with the images registered before.
-    mapper_->EndReconstruction(/*discard=*/false);
-    mapper_->BeginReconstruction(reconstruction_);
+    // The mapper learns of the images as registered; then they are
+    // triangulated with the images registered before.
+    RecountRegisteredFrames();
     for (const image_t image_id : block.image_ids) {
       mapper_->TriangulateImage(triangulation_, image_id);
     }
@@ -484,6 +482,14 @@ void MergedModelRefiner::TriangulateAnew() {
       ProcessMemoryToString(ReadProcessMemory()).c_str());
 }
 
+void MergedModelRefiner::RecountRegisteredFrames() {
+  // The mapper counts the registered frames per camera and rig as it
+  // begins a reconstruction; frames registered or deregistered outside its
+  // own registration are counted by beginning again.
+  mapper_->EndReconstruction(/*discard=*/false);
+  mapper_->BeginReconstruction(reconstruction_);
+}
+
 void MergedModelRefiner::ReleaseCorrespondences() {
   mapper_->EndReconstruction(/*discard=*/false);
   mapper_.reset();
@@ -555,9 +561,7 @@ void MergedModelRefiner::DeregisterMisplacedImages() {
     observations.DeRegisterFrame(frame_id);
   }
   if (!misplaced_frame_ids.empty()) {
-    // The mapper's per-camera counts learn of them.
-    mapper_->EndReconstruction(/*discard=*/false);
-    mapper_->BeginReconstruction(reconstruction_);
+    RecountRegisteredFrames();
     LOG(INFO) << StringPrintf(
         "Deregistered %d images that observe few of their visible points or "
         "that their matches place elsewhere (%d), to register them again",
@@ -586,9 +590,7 @@ void MergedModelRefiner::RestoreFramesApart() {
   }
   apart_frame_poses_.clear();
   if (num_restored > 0) {
-    // The mapper's per-camera counts learn of them.
-    mapper_->EndReconstruction(/*discard=*/false);
-    mapper_->BeginReconstruction(reconstruction_);
+    RecountRegisteredFrames();
     LOG(INFO) << StringPrintf(
         "%d images their matches place elsewhere could not be registered "
         "there: they keep their place",
@@ -661,9 +663,7 @@ bool MergedModelRefiner::HoldCamerasFilteredTwice(const image_t image_id) {
   // again, the mapper resets an implausible camera to the database's, and
   // holds it there (IncrementalMapper::RegisterNextImage).
   mapper_->ObservationManager().DeRegisterFrame(frame_id);
-  // The mapper's per-camera counts learn of it.
-  mapper_->EndReconstruction(/*discard=*/false);
-  mapper_->BeginReconstruction(reconstruction_);
+  RecountRegisteredFrames();
   return mapper_->RegisterNextImage(incremental_, image_id);
 }
 

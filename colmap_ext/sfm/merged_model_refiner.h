@@ -231,6 +231,9 @@ class MergedModelRefiner {
   // registration, until few observations change.
   void AdjustInRounds();
   void DeregisterMisplacedImages();
+  // Lets the mapper's per-camera and per-rig counts learn of the frames
+  // registered or deregistered outside its own registration.
+  void RecountRegisteredFrames();
   // Holds the cameras of the images filtered twice for an implausible
   // camera in the frame of `image_id`, just registered; where the
   // registration's estimate is implausible too, the frame registers again
