@@ -238,9 +238,9 @@ TEST_F(CommunityMapperInputTest, InvalidOptionValues) {
                 "--CommunityMapper.pairwise_min_num_inliers is 2: it must be "
                 "at least 3");
   ExpectRefusal(good_database_,
-                "--CommunityMapper.averaging_max_log_scale_residual 0",
-                "--CommunityMapper.averaging_max_log_scale_residual is 0: it "
-                "must be positive");
+                "--CommunityMapper.averaging_max_relative_displacement 0",
+                "--CommunityMapper.averaging_max_relative_displacement is 0: "
+                "it must be positive");
 }
 
 TEST_F(CommunityMapperInputTest, OutputPathIsAFile) {

@@ -129,21 +129,11 @@ std::vector<CommunityMapperOption> CommunityMapperOptionTable(
        "communities (0: no check)",
        false,
        kAdvanced},
-      {"averaging_max_rotation_residual_deg",
-       &averaging.max_rotation_residual_deg,
-       "drop a similarity whose rotation disagrees with the averaging by "
-       "more (degrees)",
-       false,
-       kAdvanced},
-      {"averaging_max_log_scale_residual",
-       &averaging.max_log_scale_residual,
-       "... or whose log scale does by more",
-       false,
-       kAdvanced},
-      {"averaging_max_relative_translation_residual",
-       &averaging.max_relative_translation_residual,
-       "... or whose translation does by more, relative to its points' "
-       "spread",
+      {"averaging_max_relative_displacement",
+       &averaging.max_relative_displacement,
+       "drop a similarity between two communities if the averaging places "
+       "the two copies of its inlier points further apart than this fraction "
+       "of their spread (median)",
        false,
        kAdvanced},
       {"ba_function_tolerance",

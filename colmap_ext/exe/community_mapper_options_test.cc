@@ -35,8 +35,8 @@ TEST(CommunityMapperOptionTable, BindsTheFields) {
        CommunityMapperOptionTable(&options)) {
     if (option.name == "min_community_size") {
       *option.int_value = 7;
-    } else if (option.name == "averaging_max_rotation_residual_deg") {
-      *option.double_value = 3.5;
+    } else if (option.name == "averaging_max_relative_displacement") {
+      *option.double_value = 0.35;
     } else if (option.name == "edge_weights") {
       *option.string_value = "num_inliers";
     } else if (option.name == "overwrite") {
@@ -44,8 +44,8 @@ TEST(CommunityMapperOptionTable, BindsTheFields) {
     }
   }
   EXPECT_EQ(options.mapper.community_detection.min_community_size, 7);
-  EXPECT_EQ(options.mapper.merge.similarity_averaging.max_rotation_residual_deg,
-            3.5);
+  EXPECT_EQ(options.mapper.merge.similarity_averaging.max_relative_displacement,
+            0.35);
   EXPECT_EQ(options.edge_weights, "num_inliers");
   EXPECT_TRUE(options.overwrite);
   // The ini section has the values, but not overwrite (a saved project must
@@ -53,7 +53,7 @@ TEST(CommunityMapperOptionTable, BindsTheFields) {
   const std::string ini = CommunityMapperIniSection(options);
   EXPECT_EQ(ini.rfind("[CommunityMapper]\n", 0), 0);
   EXPECT_NE(ini.find("\nmin_community_size=7\n"), std::string::npos) << ini;
-  EXPECT_NE(ini.find("\naveraging_max_rotation_residual_deg=3.5\n"),
+  EXPECT_NE(ini.find("\naveraging_max_relative_displacement=0.35\n"),
             std::string::npos);
   EXPECT_NE(ini.find("\nedge_weights=num_inliers\n"), std::string::npos);
   EXPECT_EQ(ini.find("overwrite"), std::string::npos);

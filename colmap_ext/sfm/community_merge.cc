@@ -246,13 +246,13 @@ void CommunityMerge::AverageSimilarities() {
     const auto& report = averaging_.edges[e];
     result_.num_kept_similarities += report.kept ? 1 : 0;
     LOG(INFO) << StringPrintf(
-        "Communities %d-%d: residuals rotation %.3f deg, scale %.4f, "
-        "translation %.4f -> %s",
+        "Communities %d-%d: displacement %.4f (rotation %.3f deg, scale "
+        "%.4f) -> %s",
         similarities[e].community1,
         similarities[e].community2,
+        report.relative_displacement,
         report.rotation_residual_deg,
         report.log_scale_residual,
-        report.relative_translation_residual,
         report.kept           ? "kept"
         : report.contradicted ? "dropped before the averaging (the images "
                                 "both models registered contradict it)"
@@ -265,10 +265,11 @@ void CommunityMerge::AverageSimilarities() {
 
   false_pairs_ =
       options_.confirm_rejected_links
-          ? ConfirmRejectedLinks(similarities_,
-                                 averaging_,
-                                 options_.similarity_averaging,
-                                 options_.rejected_link_max_drift_factor)
+          ? ConfirmRejectedLinks(
+                similarities_,
+                averaging_,
+                options_.similarity_averaging.max_relative_displacement,
+                options_.rejected_link_max_drift_factor)
           : similarities_.false_pairs;
   if (!false_pairs_.empty()) {
     LOG(INFO) << StringPrintf(

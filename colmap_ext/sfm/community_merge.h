@@ -14,7 +14,7 @@
 // models' statistics (docs/design.md):
 //   - a similarity that does not explain which images were matched is
 //     rejected (covisibility_check.h); one the averaging places within its
-//     bounds all the same is confirmed, and its image pairs stay;
+//     bound all the same is confirmed, and its image pairs stay;
 //   - links that disagree with the averaging are dropped; communities
 //     joined by kept links form a part, merged into one model;
 //   - the images of parts that no kept link joins to a larger one, and of
@@ -87,13 +87,13 @@ struct CommunityMergeOptions {
 
   // A similarity the co-visibility check rejected, between two communities
   // that the averaging joins through other links, is confirmed where it
-  // lies within the averaging's residual bounds of that placement
+  // lies within the averaging's displacement bound of that placement
   // (link_confirmation.h): its image pairs then
   // stay in the refinement and close the loop there. False: every rejected
   // similarity's pairs are left out.
   bool confirm_rejected_links = true;
 
-  // Those bounds grow with the drift the links between the two communities
+  // That bound grows with the drift the links between the two communities
   // may have accumulated, as the square root of their effective resistance
   // (the number of links on a path), at most by this factor.
   double rejected_link_max_drift_factor = 1.5;
@@ -171,7 +171,7 @@ class CommunityMerge {
 
   // Averages the similarities into one per community and keeps the links
   // that agree with it (similarity_averaging.h); confirms rejected links
-  // the averaging places within their bounds (link_confirmation.h).
+  // the averaging places within the bound (link_confirmation.h).
   // Communities that left are set aside.
   void AverageSimilarities();
 

@@ -183,14 +183,14 @@ namespace {
 // (here: none is tried) as a model of its own, as colmap mapper writes the
 // models it cannot join: every image in exactly one model.
 TEST_F(MergeCommunitiesTest, LeftCommunitiesKeepTheirImagesAsModels) {
-  // Each a little off, so that no link is within the bounds.
+  // Each a little off, so that no link is within the bound.
   for (int c = 0; c < plan_.NumCommunities(); ++c) {
     WriteCommunity(c,
                    FrameOf(c),
                    /*reprojection_error=*/0.5,
                    /*perturbation_deg=*/0.01);
   }
-  options_.similarity_averaging.max_rotation_residual_deg = 1e-9;
+  options_.similarity_averaging.max_relative_displacement = 1e-9;
   options_.similarity_averaging.min_relative_size = 10;
   options_.refinement.register_remaining_images = false;
   const CommunityMergeResult result =

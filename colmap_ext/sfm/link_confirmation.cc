@@ -19,8 +19,8 @@ namespace {
 // The effective resistance between communities c1 and c2 in the graph of
 // the kept edges, each a unit resistance: with c2 grounded, the potential
 // at c1 when a unit current enters there (L x = e_c1 over the communities
-// the kept edges connect to c1). 1 if they do not connect them (the bounds
-// then stay as they are).
+// the kept edges connect to c1). 1 if they do not connect them (the bound
+// then stays as it is).
 double EffectiveResistance(const std::vector<RelativeSimilarity>& similarities,
                            const SimilarityAveragingResult& averaging,
                            const int c1,
@@ -82,16 +82,11 @@ double MergeResiduals::DriftFactor(const double max_drift_factor) const {
                   std::max(1.0, max_drift_factor));
 }
 
-bool MergeResiduals::WithinBounds(const SimilarityAveragingOptions& bounds,
-                                  const double max_drift_factor) const {
-  if (!joined) {
-    return false;
-  }
-  const double factor = DriftFactor(max_drift_factor);
-  SimilarityAveragingOptions scaled = bounds;
-  scaled.max_rotation_residual_deg *= factor;
-  scaled.max_relative_translation_residual *= factor;
-  return EdgeWithinBounds(report, scaled);
+bool MergeResiduals::WithinBound(const double max_relative_displacement,
+                                 const double max_drift_factor) const {
+  return joined &&
+         EdgeWithinBound(
+             report, max_relative_displacement * DriftFactor(max_drift_factor));
 }
 
 MergeResiduals ResidualsAgainstMerge(
@@ -119,7 +114,7 @@ MergeResiduals ResidualsAgainstMerge(
 std::unordered_set<image_pair_t> ConfirmRejectedLinks(
     const CommunitySimilarities& community_similarities,
     const SimilarityAveragingResult& averaging,
-    const SimilarityAveragingOptions& bounds,
+    const double max_relative_displacement,
     const double max_drift_factor) {
   std::unordered_set<image_pair_t> false_pairs =
       community_similarities.false_pairs;
@@ -130,18 +125,19 @@ std::unordered_set<image_pair_t> ConfirmRejectedLinks(
     if (!residuals.joined) {
       continue;  // Not joined through other links: nothing to confirm it.
     }
-    const bool confirmed = residuals.WithinBounds(bounds, max_drift_factor);
+    const bool confirmed =
+        residuals.WithinBound(max_relative_displacement, max_drift_factor);
     LOG(INFO) << StringPrintf(
         "Communities %d-%d: the similarity the co-visibility check rejected "
-        "(%d inliers) against the merge: rotation %.3f deg, scale %.4f, "
-        "translation %.4f (links between them: resistance %.2f, bounds times "
-        "%.2f) -> %s",
+        "(%d inliers) against the merge: displacement %.4f (rotation %.3f deg, "
+        "scale %.4f; links between them: resistance %.2f, bound times %.2f) "
+        "-> %s",
         rejected.similarity.community1,
         rejected.similarity.community2,
         static_cast<int>(rejected.similarity.points1.size()),
+        residuals.report.relative_displacement,
         residuals.report.rotation_residual_deg,
         residuals.report.log_scale_residual,
-        residuals.report.relative_translation_residual,
         residuals.path_resistance,
         residuals.DriftFactor(max_drift_factor),
         confirmed ? StringPrintf("confirmed: its %d image pairs stay in the "

@@ -10,6 +10,9 @@
 namespace colmap {
 namespace {
 
+// The averaging's displacement bound (SimilarityAveragingOptions).
+const double kBound = SimilarityAveragingOptions().max_relative_displacement;
+
 // The averaging's result for the similarities `*similarities`: communities
 // 0 and 1 of one part, joined through `num_links` kept links in a row (via
 // communities 3, 4, ...), and through a second such path if `parallel`;
@@ -90,8 +93,8 @@ TEST(ResidualsAgainstMerge, RightTransformWithDriftIsConfirmed) {
   EXPECT_TRUE(residuals.joined);
   EXPECT_NEAR(residuals.report.rotation_residual_deg, 1.0, 1e-6);
   EXPECT_NEAR(residuals.report.log_scale_residual, std::log(1.01), 1e-9);
-  EXPECT_LT(residuals.report.relative_translation_residual, 0.1);
-  EXPECT_TRUE(residuals.WithinBounds(SimilarityAveragingOptions()));
+  EXPECT_LT(residuals.report.relative_displacement, 0.1);
+  EXPECT_TRUE(residuals.WithinBound(kBound));
 }
 
 TEST(ResidualsAgainstMerge, IdenticalStructureElsewhereIsNot) {
@@ -110,13 +113,12 @@ TEST(ResidualsAgainstMerge, IdenticalStructureElsewhereIsNot) {
                             averaging);
   EXPECT_TRUE(residuals.joined);
   EXPECT_NEAR(residuals.report.rotation_residual_deg, 0.0, 1e-6);
-  EXPECT_GT(residuals.report.relative_translation_residual, 5);
-  EXPECT_FALSE(residuals.WithinBounds(SimilarityAveragingOptions()));
-  // Not even across a path of 10 links with the bounds grown for its drift.
+  EXPECT_GT(residuals.report.relative_displacement, 5);
+  EXPECT_FALSE(residuals.WithinBound(kBound));
+  // Not even across a path of 10 links with the bound grown for its drift.
   EXPECT_NEAR(residuals.path_resistance, 10.0, 1e-9);
-  EXPECT_FALSE(
-      residuals.WithinBounds(SimilarityAveragingOptions(), /*max_drift_factor=*/
-                             std::sqrt(10.0)));
+  EXPECT_FALSE(residuals.WithinBound(kBound, /*max_drift_factor=*/
+                                     std::sqrt(10.0)));
 }
 
 TEST(ResidualsAgainstMerge, FlippedFacadeIsNot) {
@@ -132,7 +134,8 @@ TEST(ResidualsAgainstMerge, FlippedFacadeIsNot) {
                             similarities,
                             averaging);
   EXPECT_NEAR(residuals.report.rotation_residual_deg, 180.0, 1e-6);
-  EXPECT_FALSE(residuals.WithinBounds(SimilarityAveragingOptions()));
+  EXPECT_GT(residuals.report.relative_displacement, 1);
+  EXPECT_FALSE(residuals.WithinBound(kBound));
 }
 
 TEST(ResidualsAgainstMerge, NothingConfirmsALinkBetweenParts) {
@@ -146,8 +149,7 @@ TEST(ResidualsAgainstMerge, NothingConfirmsALinkBetweenParts) {
                             similarities,
                             averaging);
   EXPECT_FALSE(residuals.joined);
-  EXPECT_FALSE(residuals.WithinBounds(SimilarityAveragingOptions(),
-                                      /*max_drift_factor=*/10));
+  EXPECT_FALSE(residuals.WithinBound(kBound, /*max_drift_factor=*/10));
   // Nor a link of a community that left the merge (a part of its own).
   averaging.excluded[1] = true;
   averaging.part_of_community[1] = 2;
@@ -158,7 +160,7 @@ TEST(ResidualsAgainstMerge, NothingConfirmsALinkBetweenParts) {
           .joined);
 }
 
-TEST(ResidualsAgainstMerge, BoundsGrowWithThePathsDrift) {
+TEST(ResidualsAgainstMerge, BoundGrowsWithThePathsDrift) {
   // The merge placed community 1 about a third of a spread off the rejected
   // transform: beyond the averaging's bound (0.2), within it grown for the
   // drift of 3 links in a row (times sqrt(3)), not over two parallel paths
@@ -174,36 +176,34 @@ TEST(ResidualsAgainstMerge, BoundsGrowWithThePathsDrift) {
       TwoJoinedOneApart(drifted, &similarities, /*num_links=*/3);
   const MergeResiduals residuals =
       ResidualsAgainstMerge(rejected, similarities, averaging);
-  ASSERT_GT(residuals.report.relative_translation_residual, 0.2);
-  ASSERT_LT(residuals.report.relative_translation_residual,
-            0.2 * std::sqrt(3.0));
+  ASSERT_GT(residuals.report.relative_displacement, kBound);
+  ASSERT_LT(residuals.report.relative_displacement, kBound * std::sqrt(3.0));
   EXPECT_NEAR(residuals.path_resistance, 3.0, 1e-9);
   EXPECT_NEAR(residuals.DriftFactor(2.0), std::sqrt(3.0), 1e-9);
-  EXPECT_FALSE(residuals.WithinBounds(SimilarityAveragingOptions()));
-  EXPECT_TRUE(residuals.WithinBounds(SimilarityAveragingOptions(),
-                                     /*max_drift_factor=*/2.0));
+  EXPECT_FALSE(residuals.WithinBound(kBound));
+  EXPECT_TRUE(residuals.WithinBound(kBound, /*max_drift_factor=*/2.0));
   // The factor is capped.
   EXPECT_NEAR(residuals.DriftFactor(1.5), 1.5, 1e-9);
 
-  // Scale drift is not: 30% off across the same 3 links stays rejected.
+  // Scale counts as the points it moves: 50% off across the same 3 links
+  // puts them half a spread apart, beyond the grown bound.
   const Sim3d scaled(
-      1.3, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
+      1.5, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
   averaging = TwoJoinedOneApart(scaled, &similarities, /*num_links=*/3);
   const MergeResiduals scale_drift =
       ResidualsAgainstMerge(rejected, similarities, averaging);
-  EXPECT_NEAR(scale_drift.report.log_scale_residual, std::log(1.3), 1e-9);
-  EXPECT_FALSE(scale_drift.WithinBounds(SimilarityAveragingOptions(),
-                                        /*max_drift_factor=*/2.0));
+  EXPECT_NEAR(scale_drift.report.log_scale_residual, std::log(1.5), 1e-9);
+  EXPECT_NEAR(scale_drift.report.relative_displacement, 0.5, 0.05);
+  EXPECT_FALSE(scale_drift.WithinBound(kBound, /*max_drift_factor=*/2.0));
 
   averaging = TwoJoinedOneApart(
       drifted, &similarities, /*num_links=*/2, /*parallel=*/true);
   const MergeResiduals parallel =
       ResidualsAgainstMerge(rejected, similarities, averaging);
   EXPECT_NEAR(parallel.path_resistance, 1.0, 1e-9);
-  EXPECT_FALSE(parallel.WithinBounds(SimilarityAveragingOptions(),
-                                     /*max_drift_factor=*/2.0));
+  EXPECT_FALSE(parallel.WithinBound(kBound, /*max_drift_factor=*/2.0));
 
-  // Put in one part with no kept link between them, the bounds stay.
+  // Put in one part with no kept link between them, the bound stays.
   for (auto& report : averaging.edges) {
     report.kept = false;
   }
@@ -236,7 +236,7 @@ TEST(ConfirmRejectedLinks, KeepsThePairsOfConfirmedTransformsOnly) {
   community_similarities.false_pairs = {1, 2, 3};
   EXPECT_EQ(ConfirmRejectedLinks(community_similarities,
                                  averaging,
-                                 SimilarityAveragingOptions(),
+                                 kBound,
                                  /*max_drift_factor=*/1.5),
             std::unordered_set<image_pair_t>({2, 3}));
 }

@@ -69,8 +69,11 @@ struct PairwiseSimilarityOptions {
   // RANSAC trials.
   double min_inlier_ratio = 0.1;
 
-  // Minimum number of inlier correspondences for a usable transform.
-  int min_num_inliers = 20;
+  // Minimum number of inlier correspondences for a usable transform. A
+  // transform with few inliers still counts for less in the averaging
+  // (SimilarityAveragingOptions::full_support_num_inliers) and is judged by
+  // where it puts its points, so a weak link closing a loop can be used.
+  int min_num_inliers = 10;
 
   // Transforms tried when a check rejects one: each next one is estimated
   // from the correspondences that the rejected ones left as outliers (where

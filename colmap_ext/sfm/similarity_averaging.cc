@@ -1,15 +1,17 @@
 #include "colmap_ext/sfm/similarity_averaging.h"
-#include "colmap_ext/util/option_check.h"
 
 #include "colmap_ext/sfm/pairwise_similarity.h"
+#include "colmap_ext/util/option_check.h"
 #include "colmap_ext/util/union_find.h"
 
 #include "colmap/math/math.h"
 #include "colmap/optim/least_absolute_deviations.h"
 #include "colmap/util/logging.h"
+#include "colmap/util/string.h"
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <unordered_set>
@@ -101,13 +103,6 @@ void TranslationMeasurement(const RelativeSimilarity& edge,
                             const Sim3d& world_from_second,
                             Eigen::Vector3d* measurement,
                             double* spread) {
-  if (edge.points1.empty()) {
-    *measurement =
-        world_from_second.scale() *
-        (world_from_second.rotation() * edge.second_from_first.translation());
-    *spread = measurement->norm();
-    return;
-  }
   std::vector<Eigen::Vector3d> world_points2(edge.points2.size());
   std::vector<double> differences[3];
   for (size_t k = 0; k < edge.points1.size(); ++k) {
@@ -132,7 +127,7 @@ void TranslationMeasurement(const RelativeSimilarity& edge,
 // Averages the similarities of one connected part in place. With
 // `translations_in_spreads`, every edge's translation counts in units of the
 // spread of its correspondences (its weight divided by that spread), the
-// unit of the residual bounds.
+// unit of the displacement bound.
 bool AveragePart(const std::vector<int>& nodes,
                  const std::vector<const RelativeSimilarity*>& edges,
                  const std::vector<double>& edge_weights,
@@ -235,37 +230,39 @@ bool AveragePart(const std::vector<int>& nodes,
 SimilarityAveragingResult::EdgeReport ComputeEdgeResiduals(
     const RelativeSimilarity& edge,
     const std::vector<Sim3d>& world_from_community) {
+  THROW_CHECK(!edge.points1.empty());
+  THROW_CHECK_EQ(edge.points1.size(), edge.points2.size());
   const Sim3d& world_from_first = world_from_community[edge.community1];
   const Sim3d& world_from_second = world_from_community[edge.community2];
   SimilarityAveragingResult::EdgeReport report;
+  std::vector<Eigen::Vector3d> world_points2(edge.points2.size());
+  std::vector<double> displacements(edge.points1.size());
+  for (size_t k = 0; k < edge.points1.size(); ++k) {
+    world_points2[k] = world_from_second * edge.points2[k];
+    displacements[k] =
+        (world_from_first * edge.points1[k] - world_points2[k]).norm();
+  }
+  const double spread = MedianDistanceToMedian(world_points2);
+  const double displacement = Median(displacements);
+  report.relative_displacement =
+      spread > 0
+          ? displacement / spread
+          : (displacement > 0 ? std::numeric_limits<double>::infinity() : 0.0);
   // Predicted R_ij = R_j^T R_i, s_ij = s_i / s_j.
   const Eigen::Quaterniond predicted_rotation =
       world_from_second.rotation().inverse() * world_from_first.rotation();
   report.rotation_residual_deg = RadToDeg(
       predicted_rotation.angularDistance(edge.second_from_first.rotation()));
-  report.log_scale_residual =
-      std::abs(std::log(world_from_first.scale()) -
-               std::log(world_from_second.scale()) -
-               std::log(edge.second_from_first.scale()));
-  Eigen::Vector3d measurement;
-  double spread;
-  TranslationMeasurement(
-      edge, world_from_first, world_from_second, &measurement, &spread);
-  const double residual = (world_from_first.translation() -
-                           world_from_second.translation() - measurement)
-                              .norm();
-  report.relative_translation_residual =
-      spread > 0 ? residual / spread : (residual > 0 ? 1e9 : 0.0);
+  report.log_scale_residual = std::abs(
+      std::log(world_from_first.scale()) - std::log(world_from_second.scale()) -
+      std::log(edge.second_from_first.scale()));
   return report;
 }
 
-bool EdgeWithinBounds(const SimilarityAveragingResult::EdgeReport& report,
-                      const SimilarityAveragingOptions& options) {
-  // Written so that a non-finite residual counts as too large.
-  return report.rotation_residual_deg <= options.max_rotation_residual_deg &&
-         report.log_scale_residual <= options.max_log_scale_residual &&
-         report.relative_translation_residual <=
-             options.max_relative_translation_residual;
+bool EdgeWithinBound(const SimilarityAveragingResult::EdgeReport& report,
+                     const double max_relative_displacement) {
+  // Written so that a non-finite displacement counts as too large.
+  return report.relative_displacement <= max_relative_displacement;
 }
 
 namespace {
@@ -294,22 +291,11 @@ bool SharedImagesConfirm(const RelativeSimilarity& edge,
          NumSharedImagesPlacedElsewhere(edge) <= max_num_disagreeing;
 }
 
-// How far a finite report is beyond the bounds: its largest residual as a
-// multiple of that residual's bound (above 1: beyond).
-double BoundsExcess(const SimilarityAveragingResult::EdgeReport& report,
-                    const SimilarityAveragingOptions& options) {
-  return std::max(
-      {report.rotation_residual_deg / options.max_rotation_residual_deg,
-       report.log_scale_residual / options.max_log_scale_residual,
-       report.relative_translation_residual /
-           options.max_relative_translation_residual});
-}
-
-// Whether the L1 solution of a part leaves edges beyond the bounds that are
+// Whether the L1 solution of a part leaves edges beyond the bound that are
 // all confirmed by their shared images, and the least squares solution
 // (which spreads a cycle's disagreement over its edges) brings every edge
-// of the part within them. If so, `world_from_community` holds the least
-// squares solution for the part's nodes. If some edges beyond the bounds
+// of the part within it. If so, `world_from_community` holds the least
+// squares solution for the part's nodes. If some edges beyond the bound
 // are confirmed and others not, `deferred` receives the confirmed ones: they
 // are judged again once the others are out.
 bool SpreadCycleDrift(const std::vector<int>& nodes,
@@ -321,18 +307,16 @@ bool SpreadCycleDrift(const std::vector<int>& nodes,
   std::vector<const RelativeSimilarity*> confirmed_edges;
   bool unconfirmed = false;
   for (const RelativeSimilarity* edge : edges) {
-    if (EdgeWithinBounds(ComputeEdgeResiduals(*edge, *world_from_community),
-                         options)) {
+    if (EdgeWithinBound(ComputeEdgeResiduals(*edge, *world_from_community),
+                        options.max_relative_displacement)) {
       continue;
     }
     const bool confirmed =
         SharedImagesConfirm(*edge,
                             options.min_num_confirming_shared_images,
                             /*max_num_disagreeing=*/0) &&
-        edge->max_shared_image_rotation_deg <=
-            options.max_rotation_residual_deg &&
         edge->max_shared_image_relative_distance <=
-            options.max_relative_translation_residual;
+            options.max_relative_displacement;
     if (confirmed) {
       confirmed_edges.push_back(edge);
     } else {
@@ -347,7 +331,7 @@ bool SpreadCycleDrift(const std::vector<int>& nodes,
     return false;
   }
   // Drift is no edge's fault: every edge counts alike, its translation in
-  // units of its own spread (the residual bounds' unit), so that a small
+  // units of its own spread (the bound's unit), so that a small
   // community's edges do not take up the whole loop's gap.
   SimilarityAveragingOptions least_squares_options = options;
   least_squares_options.least_squares = true;
@@ -362,7 +346,8 @@ bool SpreadCycleDrift(const std::vector<int>& nodes,
     return false;
   }
   for (const RelativeSimilarity* edge : edges) {
-    if (!EdgeWithinBounds(ComputeEdgeResiduals(*edge, spread), options)) {
+    if (!EdgeWithinBound(ComputeEdgeResiduals(*edge, spread),
+                         options.max_relative_displacement)) {
       return false;
     }
   }
@@ -372,24 +357,59 @@ bool SpreadCycleDrift(const std::vector<int>& nodes,
   return true;
 }
 
+// One connected part as it was averaged: its communities, reference and
+// kept edges with their weights.
+struct AveragedPart {
+  std::vector<int> nodes;
+  int reference = -1;
+  std::vector<const RelativeSimilarity*> edges;
+  std::vector<double> weights;
+};
+
+// The displacement of `edge`'s inlier points where the other edges of its
+// part, averaged without it, place its communities (infinite if they do not
+// join them or their averaging fails).
+double DisplacementUnderOtherEdges(const AveragedPart& part,
+                                   const RelativeSimilarity& edge,
+                                   const SimilarityAveragingOptions& options,
+                                   std::vector<Sim3d> world_from_community) {
+  std::vector<const RelativeSimilarity*> others;
+  std::vector<double> other_weights;
+  std::vector<std::pair<int, int>> other_pairs;
+  for (size_t e = 0; e < part.edges.size(); ++e) {
+    if (part.edges[e] != &edge) {
+      others.push_back(part.edges[e]);
+      other_weights.push_back(part.weights[e]);
+      other_pairs.emplace_back(part.edges[e]->community1,
+                               part.edges[e]->community2);
+    }
+  }
+  const std::vector<int> labels = ConnectedComponentLabels(
+      static_cast<int>(world_from_community.size()), other_pairs);
+  for (const int node : part.nodes) {
+    if (labels[node] != labels[part.reference]) {
+      return std::numeric_limits<double>::infinity();
+    }
+  }
+  if (!AveragePart(part.nodes,
+                   others,
+                   other_weights,
+                   part.reference,
+                   options,
+                   &world_from_community)) {
+    return std::numeric_limits<double>::infinity();
+  }
+  return ComputeEdgeResiduals(edge, world_from_community).relative_displacement;
+}
+
 }  // namespace
 
 bool SimilarityAveragingOptions::Check() const {
   CHECK_OPTION(rotation.Check());
-  bool valid = true;
-  valid &= CheckFlag(max_rotation_residual_deg > 0,
-                     "averaging_max_rotation_residual_deg",
-                     max_rotation_residual_deg,
-                     "positive");
-  valid &= CheckFlag(max_log_scale_residual > 0,
-                     "averaging_max_log_scale_residual",
-                     max_log_scale_residual,
-                     "positive");
-  valid &= CheckFlag(max_relative_translation_residual > 0,
-                     "averaging_max_relative_translation_residual",
-                     max_relative_translation_residual,
-                     "positive");
-  if (!valid) {
+  if (!CheckFlag(max_relative_displacement > 0,
+                 "averaging_max_relative_displacement",
+                 max_relative_displacement,
+                 "positive")) {
     return false;
   }
   CHECK_OPTION_GE(max_num_rejection_rounds, 0);
@@ -423,6 +443,7 @@ SimilarityAveragingResult AverageSimilarities(
     THROW_CHECK_LT(edge.community2, num_communities);
     THROW_CHECK_NE(edge.community1, edge.community2);
     THROW_CHECK_GT(edge.second_from_first.scale(), 0);
+    THROW_CHECK(!edge.points1.empty());
     THROW_CHECK_EQ(edge.points1.size(), edge.points2.size());
   }
 
@@ -514,6 +535,7 @@ SimilarityAveragingResult AverageSimilarities(
     // A part whose averaging fails loses its edges; the next round splits it.
     bool failed = false;
     std::unordered_set<const RelativeSimilarity*> deferred;
+    std::map<int, AveragedPart> averaged_parts;  // By the parts' labels.
     for (std::vector<int>& nodes : parts) {
       int reference = nodes.front();
       for (const int node : nodes) {
@@ -548,7 +570,10 @@ SimilarityAveragingResult AverageSimilarities(
           result.world_from_community[node] = Sim3d();
         }
         failed = failed || !edge_indices.empty();
-      } else if (options.spread_cycle_drift) {
+        continue;
+      }
+      averaged_parts[component[reference]] = {nodes, reference, edges, weights};
+      if (options.spread_cycle_drift) {
         std::vector<const RelativeSimilarity*> deferred_edges;
         if (SpreadCycleDrift(nodes,
                              edges,
@@ -558,9 +583,9 @@ SimilarityAveragingResult AverageSimilarities(
                              &deferred_edges)) {
           LOG(INFO) << "A part of " << nodes.size()
                     << " communities does not close under robust averaging, "
-                       "but every edge beyond the bounds is confirmed by its "
+                       "but every edge beyond the bound is confirmed by its "
                        "shared images and least squares spreads the "
-                       "disagreement within them: drift, kept";
+                       "disagreement within it: drift, kept";
         }
         deferred.insert(deferred_edges.begin(), deferred_edges.end());
       }
@@ -570,46 +595,67 @@ SimilarityAveragingResult AverageSimilarities(
     // weaker community if it cannot be trusted on its own.
     std::vector<int> to_exclude;
     bool rejected = false;
-    // With reject_worst_first, the edge beyond the bounds by the largest
+    // With reject_worst_first, the edge beyond the bound by the largest
     // factor in each part (by its reference's label): excess and index.
     std::map<int, std::pair<double, size_t>> worst_of_part;
+    std::map<int, int> num_beyond_bound;  // By the parts' labels.
     std::vector<size_t> to_reject;
     for (size_t e = 0; e < relative_similarities.size(); ++e) {
       if (!result.edges[e].kept) {
         continue;
       }
-      result.edges[e] = ComputeEdgeResiduals(relative_similarities[e],
-                                             result.world_from_community);
+      const RelativeSimilarity& edge = relative_similarities[e];
+      result.edges[e] = ComputeEdgeResiduals(edge, result.world_from_community);
       result.edges[e].kept = true;
-      // A non-finite residual counts as too large; such an edge is rejected
-      // in any round.
-      const bool within_bounds = EdgeWithinBounds(result.edges[e], options);
-      const bool finite =
-          std::isfinite(result.edges[e].rotation_residual_deg) &&
-          std::isfinite(result.edges[e].log_scale_residual) &&
-          std::isfinite(result.edges[e].relative_translation_residual);
-      // An edge beyond the bounds that its shared images confirm waits while
-      // unconfirmed ones of its part go (SpreadCycleDrift).
-      const bool waits =
-          finite && deferred.count(&relative_similarities[e]) > 0;
-      if (!within_bounds && !waits && (round < max_num_rounds || !finite)) {
-        if (!finite || !options.reject_worst_first) {
-          to_reject.push_back(e);
-        } else {
-          const double excess = BoundsExcess(result.edges[e], options);
-          auto& worst =
-              worst_of_part
-                  .emplace(component[relative_similarities[e].community1],
-                           std::make_pair(0.0, e))
-                  .first->second;
-          if (excess > worst.first) {
-            worst = {excess, e};
-          }
-        }
+      const double displacement = result.edges[e].relative_displacement;
+      if (EdgeWithinBound(result.edges[e], options.max_relative_displacement)) {
+        continue;
+      }
+      const int label = component[edge.community1];
+      ++num_beyond_bound[label];
+      // A non-finite displacement is rejected in any round. An edge beyond
+      // the bound that its shared images confirm waits while unconfirmed
+      // ones of its part go (SpreadCycleDrift).
+      const bool finite = std::isfinite(displacement);
+      const bool waits = finite && deferred.count(&edge) > 0;
+      if (waits || (round >= max_num_rounds && finite)) {
+        continue;
+      }
+      if (!finite || !options.reject_worst_first) {
+        to_reject.push_back(e);
+        continue;
+      }
+      const double excess = displacement / options.max_relative_displacement;
+      auto& worst =
+          worst_of_part.emplace(label, std::make_pair(0.0, e)).first->second;
+      if (excess > worst.first) {
+        worst = {excess, e};
       }
     }
-    for (const auto& part_and_worst : worst_of_part) {
-      to_reject.push_back(part_and_worst.second.second);
+    for (const auto& [label, worst] : worst_of_part) {
+      const RelativeSimilarity& edge = relative_similarities[worst.second];
+      if (num_beyond_bound.at(label) == 1) {
+        const double displacement =
+            DisplacementUnderOtherEdges(averaged_parts.at(label),
+                                        edge,
+                                        options,
+                                        result.world_from_community);
+        LOG(INFO) << StringPrintf(
+            "Communities %d-%d: displacement %.4f, the only link of its part "
+            "beyond the bound; the other links place its points %.4f off -> "
+            "%s",
+            edge.community1,
+            edge.community2,
+            result.edges[worst.second].relative_displacement,
+            displacement,
+            displacement <= options.max_relative_displacement
+                ? "the cycle's gap, kept"
+                : "rejected");
+        if (displacement <= options.max_relative_displacement) {
+          continue;
+        }
+      }
+      to_reject.push_back(worst.second);
     }
     for (const size_t e : to_reject) {
       result.edges[e].kept = false;

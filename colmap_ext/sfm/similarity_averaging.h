@@ -29,17 +29,29 @@
 // alone, never by its own model's statistics: a community bent by drift fits
 // its own observations as well as any.
 //
-// Afterwards, edges whose residuals stay large (rotation, scale ratio, or
-// translation relative to the spread of the edge's correspondences) are
-// reported and left out, the one furthest beyond the bounds in each part
+// Afterwards, an edge is judged by where the averaging puts its own inlier
+// points: the two communities' copies of each point, both placed in the
+// world frame, must lie within a fifth of their spread of each other (the
+// median over the points). One bound on the points serves rotation, scale
+// and translation at once, in the unit in which a similarity fitted to few
+// or clustered points is still right where its points are: its rotation
+// alone can be degrees off (a weak loop-closing link measured 6.6 degrees)
+// while its points sit within a tenth of their spread. Edges beyond the
+// bound are reported and left out, the one furthest beyond it in each part
 // first, and the averaging is repeated (wrong edges pull the solution, so
-// that right ones next to them can look wrong until they are out). Before
-// that, a disagreement that is drift rather than a fault is told apart: if
-// every edge beyond the bounds is confirmed by the images its two
+// that right ones next to them can look wrong until they are out). A
+// part's only edge beyond the bound stays where the part's other edges,
+// averaged without it, place its points within the bound: averaged with it
+// in, the rotations lean toward its rotation (degrees off where it was
+// fitted to a few clustered points), and a small patch of points far from
+// its communities' origins moves with that lean by more than its spread
+// allows; the other edges alone say where its points belong. Before that, a
+// disagreement that is drift rather than a fault is told apart: if
+// every edge beyond the bound is confirmed by the images its two
 // communities both registered, the part is averaged again in least squares
 // (every edge alike, translations in units of their spreads), which spreads
 // a long loop's gap over all its edges; if that brings every edge within
-// the bounds, that solution stands (`spread_cycle_drift`). The weaker
+// the bound, that solution stands (`spread_cycle_drift`). The weaker
 // community of a rejected edge leaves the merge altogether if it is small
 // and fewer than two kept edges confirm it (its images and its model can
 // still join the merged model later): a community that drifts or broke
@@ -96,38 +108,36 @@ struct SimilarityAveragingOptions {
   // L1 (for comparison only: not robust to wrong edges).
   bool least_squares = false;
 
-  // An edge is rejected when, after averaging, its rotation residual (deg),
-  // its scale ratio residual |log(s_i / (s_j s_ij))| or its translation
-  // residual relative to the spread of its correspondences exceeds these.
-  double max_rotation_residual_deg = 5.0;
-  double max_log_scale_residual = 0.2;
-  double max_relative_translation_residual = 0.2;
+  // An edge is rejected when, after averaging, the median distance between
+  // the two placements of its inlier points exceeds this fraction of their
+  // spread (EdgeReport::relative_displacement).
+  double max_relative_displacement = 0.2;
 
   // Rounds of rejection and re-averaging (0: keep every edge).
   int max_num_rejection_rounds = 5;
 
-  // Each round rejects only the edge of each part that is beyond the bounds
+  // Each round rejects only the edge of each part that is beyond the bound
   // by the largest factor (wrong edges distort the averaging, so that right
   // ones next to them can look wrong until they are out); there are then as
   // many rounds as edges, at most (but 0 still keeps every edge). False:
-  // every edge beyond the bounds goes at once.
+  // every edge beyond the bound goes at once.
   bool reject_worst_first = true;
 
   // Drift on a long cycle: where the L1 averaging of a part leaves edges
-  // beyond the bounds above, but each of them is confirmed by the images
+  // beyond the bound above, but each of them is confirmed by the images
   // both of its communities registered (at least
   // `min_num_confirming_shared_images`, every one placed alike under its
-  // similarity, and the farthest apart within the rotation and translation
-  // bounds above), the part's scales and translations are averaged again in
+  // similarity, and the farthest apart no further than the bound above, in
+  // the same unit), the part's scales and translations are averaged again in
   // least squares (every edge alike, translations in units of their
   // correspondences' spread; rotations stay robustly averaged), which
   // spreads a cycle's disagreement over all its edges as loop closure
-  // spreads drift; if every edge of the part is then within the bounds,
+  // spreads drift; if every edge of the part is then within the bound,
   // that solution is kept and nothing is rejected. A similarity that is
-  // wrong by more than the bounds moves the copies of its shared images
-  // apart by as much, and a bent one keeps its rotation residual; drift
+  // wrong by more than the bound moves the copies of its shared images
+  // apart by as much, and a bent one keeps its points apart; drift
   // accumulated around a loop of many communities leaves every link locally
-  // right. Where some edges beyond the bounds are confirmed and others not,
+  // right. Where some edges beyond the bound are confirmed and others not,
   // the others are rejected first and the confirmed ones judged again in the
   // next round, without them. Without it, a long loop's gap falls on the
   // edges of its smallest community, which leaves the merge, and the loop
@@ -169,9 +179,14 @@ struct SimilarityAveragingOptions {
 
 struct SimilarityAveragingResult {
   struct EdgeReport {
+    // The median distance between the two placements of the edge's inlier
+    // points in the world frame, relative to their spread: the one residual
+    // an edge is judged by.
+    double relative_displacement = 0.0;
+    // How far the edge's own rotation and scale ratio are from the
+    // averaging's (degrees, |log(s_i / (s_j s_ij))|), reported only.
     double rotation_residual_deg = 0.0;
     double log_scale_residual = 0.0;
-    double relative_translation_residual = 0.0;
     // Whether the edge joins its communities in the result.
     bool kept = false;
     // Dropped because nothing confirms it: no cycle of kept edges passes
@@ -196,19 +211,19 @@ struct SimilarityAveragingResult {
 };
 
 // The residuals of `edge` under the placement `world_from_community`
-// (indexed by community), as the averaging judges its edges: rotation,
-// scale ratio, and translation relative to the spread of the edge's
-// correspondences (see SimilarityAveragingOptions).
+// (indexed by community), as the averaging judges its edges (see
+// EdgeReport).
 SimilarityAveragingResult::EdgeReport ComputeEdgeResiduals(
     const RelativeSimilarity& edge,
     const std::vector<Sim3d>& world_from_community);
 
-// Whether every residual of `report` is within the bounds of `options` (a
-// non-finite one is not).
-bool EdgeWithinBounds(const SimilarityAveragingResult::EdgeReport& report,
-                      const SimilarityAveragingOptions& options);
+// Whether the displacement of `report` is within `max_relative_displacement`
+// (a non-finite one is not).
+bool EdgeWithinBound(const SimilarityAveragingResult::EdgeReport& report,
+                     double max_relative_displacement);
 
-// Averages the relative similarities of communities 0..N-1.
+// Averages the relative similarities of communities 0..N-1. Every edge
+// carries its inlier points.
 SimilarityAveragingResult AverageSimilarities(
     const std::vector<AveragedCommunity>& communities,
     const std::vector<RelativeSimilarity>& relative_similarities,
