@@ -243,7 +243,6 @@ PairOutcome EstimatePairSimilarity(
   relative.num_supporting_images = num_supporting_images;
   relative.num_shared_images = agreement.num_shared_images;
   relative.num_agreeing_shared_images = agreement.num_agreeing;
-  relative.max_shared_image_rotation_deg = agreement.max_rotation_deg;
   relative.max_shared_image_relative_distance = agreement.max_relative_distance;
   outcome.has_similarity = true;
   return outcome;

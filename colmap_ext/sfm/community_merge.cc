@@ -256,10 +256,12 @@ void CommunityMerge::AverageSimilarities() {
         report.kept           ? "kept"
         : report.contradicted ? "dropped before the averaging (the images "
                                 "both models registered contradict it)"
+        : report.community_left
+            ? "dropped (one of its communities left the merge)"
         : report.unconfirmed
             ? "dropped (on no cycle, and the images both "
               "models registered do not confirm it)"
-            : "dropped (the residuals of the averaging that dropped it, "
+            : "dropped (the displacement of the averaging that dropped it, "
               "with it in)");
   }
 

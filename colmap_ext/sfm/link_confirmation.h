@@ -16,17 +16,16 @@
 // confirmed transform's cross pairs are no false pairs: they close the loop in
 // the refinement.
 //
-// Drift: each kept link places its communities within the bound, and
+// Drift: each kept link places its communities about within the bound, and
 // independent errors along a path of k links add up to about sqrt(k) times
 // one link's (a random walk); over parallel paths, less. The displacement
 // bound is therefore scaled by the square root of the effective resistance
 // between the two communities in the graph of kept links (each link one
 // unit: k on a path of k links, 1 over two parallel paths of 2; 1 where the
 // kept links do not connect them), between 1 and `max_drift_factor`. The
-// factor is capped
-// low: a facade of repeated windows matched one period off lies a period
-// from the right place, a third of a spread where the matches span ten
-// periods.
+// factor is capped low: a facade of repeated windows matched one period off
+// lies a period from the right place, a third of a spread where the matches
+// span ten periods.
 
 #pragma once
 

@@ -161,9 +161,10 @@ struct RelativeSimilarity {
   int community2 = -1;
   // X2 = s R X1 + t.
   Sim3d second_from_first;
-  // Inlier correspondences (X1, X2); if empty, t of second_from_first is
-  // used for the translation. Their 3D point ids in the two models (for the
-  // merge; the averaging does not use them).
+  // Inlier correspondences (X1, X2), at least one: the averaging takes the
+  // translation from them and judges the similarity by where it puts them.
+  // Their 3D point ids in the two models (for the merge; the averaging does
+  // not use them).
   std::vector<Eigen::Vector3d> points1;
   std::vector<Eigen::Vector3d> points2;
   std::vector<std::pair<point3D_t, point3D_t>> point3D_ids;
@@ -177,10 +178,8 @@ struct RelativeSimilarity {
   // maps onto their other copy (pairwise_similarity.h, CheckSharedImages).
   int num_shared_images = 0;
   int num_agreeing_shared_images = 0;
-  // The largest rotation (degrees) and distance (in spreads of the
-  // correspondences) between the two copies of a shared image under the
-  // similarity.
-  double max_shared_image_rotation_deg = 0.0;
+  // The largest distance (in spreads of the correspondences) between the
+  // two copies of a shared image under the similarity.
   double max_shared_image_relative_distance = 0.0;
 };
 

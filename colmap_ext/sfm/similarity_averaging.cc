@@ -244,10 +244,11 @@ SimilarityAveragingResult::EdgeReport ComputeEdgeResiduals(
   }
   const double spread = MedianDistanceToMedian(world_points2);
   const double displacement = Median(displacements);
+  // A non-finite placement gives an infinite (or NaN) displacement.
   report.relative_displacement =
       spread > 0
           ? displacement / spread
-          : (displacement > 0 ? std::numeric_limits<double>::infinity() : 0.0);
+          : (displacement == 0 ? 0.0 : std::numeric_limits<double>::infinity());
   // Predicted R_ij = R_j^T R_i, s_ij = s_i / s_j.
   const Eigen::Quaterniond predicted_rotation =
       world_from_second.rotation().inverse() * world_from_first.rotation();
@@ -492,6 +493,22 @@ SimilarityAveragingResult AverageSimilarities(
     result.edges[e].kept = !result.edges[e].contradicted;
   }
 
+  // Whether no other kept edge joins the communities of edge e, directly or
+  // through others: e lies on no cycle of kept edges.
+  const auto IsBridge = [&](const size_t e) {
+    std::vector<std::pair<int, int>> other_edges;
+    for (size_t f = 0; f < relative_similarities.size(); ++f) {
+      if (f != e && result.edges[f].kept) {
+        other_edges.emplace_back(relative_similarities[f].community1,
+                                 relative_similarities[f].community2);
+      }
+    }
+    const std::vector<int> labels =
+        ConnectedComponentLabels(num_communities, other_edges);
+    return labels[relative_similarities[e].community1] !=
+           labels[relative_similarities[e].community2];
+  };
+
   const auto CountKeptEdges = [&]() {
     std::vector<int> num_kept_edges(num_communities, 0);
     for (size_t e = 0; e < relative_similarities.size(); ++e) {
@@ -615,10 +632,13 @@ SimilarityAveragingResult AverageSimilarities(
       ++num_beyond_bound[label];
       // A non-finite displacement is rejected in any round. An edge beyond
       // the bound that its shared images confirm waits while unconfirmed
-      // ones of its part go (SpreadCycleDrift).
+      // ones of its part go (SpreadCycleDrift). A bridge is placed by its
+      // own similarity alone: its displacement is its own fit's residual, no
+      // other edge's disagreement, and the bridge rule below judges it.
       const bool finite = std::isfinite(displacement);
       const bool waits = finite && deferred.count(&edge) > 0;
-      if (waits || (round >= max_num_rounds && finite)) {
+      if (waits || (round >= max_num_rounds && finite) ||
+          (finite && IsBridge(e))) {
         continue;
       }
       if (!finite || !options.reject_worst_first) {
@@ -683,9 +703,11 @@ SimilarityAveragingResult AverageSimilarities(
       }
       result.excluded[community] = true;
       for (size_t e = 0; e < relative_similarities.size(); ++e) {
-        if (relative_similarities[e].community1 == community ||
-            relative_similarities[e].community2 == community) {
+        if (result.edges[e].kept &&
+            (relative_similarities[e].community1 == community ||
+             relative_similarities[e].community2 == community)) {
           result.edges[e].kept = false;
+          result.edges[e].community_left = true;
         }
       }
     }
@@ -693,8 +715,8 @@ SimilarityAveragingResult AverageSimilarities(
       continue;
     }
 
-    // Edges that no cycle of kept edges checks (bridges): their residuals
-    // are zero whatever they are worth. The images both models registered
+    // Edges that no cycle of kept edges checks (bridges): the averaging fits
+    // them as they are, right or wrong. The images both models registered
     // must confirm such an edge (see below). On South Building with 40% of its
     // photographs left out at random (mapper: two models), two sound
     // communities were joined only by wrong matches: their similarity had 25
@@ -721,16 +743,7 @@ SimilarityAveragingResult AverageSimilarities(
       if (SharedImagesConfirm(edge, min_num_agreeing, max_num_disagreeing)) {
         continue;
       }
-      std::vector<std::pair<int, int>> other_edges;
-      for (size_t f = 0; f < relative_similarities.size(); ++f) {
-        if (f != e && result.edges[f].kept) {
-          other_edges.emplace_back(relative_similarities[f].community1,
-                                   relative_similarities[f].community2);
-        }
-      }
-      const std::vector<int> labels =
-          ConnectedComponentLabels(num_communities, other_edges);
-      if (labels[edge.community1] != labels[edge.community2]) {
+      if (IsBridge(e)) {
         result.edges[e].kept = false;
         result.edges[e].unconfirmed = true;
         dropped_bridge = true;

@@ -40,11 +40,12 @@
 // bound are reported and left out, the one furthest beyond it in each part
 // first, and the averaging is repeated (wrong edges pull the solution, so
 // that right ones next to them can look wrong until they are out). A
-// part's only edge beyond the bound stays where the part's other edges,
+// part's only edge beyond the bound (with `reject_worst_first`) stays, its
+// displacement as averaged with it in, where the part's other edges,
 // averaged without it, place its points within the bound: averaged with it
 // in, the rotations lean toward its rotation (degrees off where it was
 // fitted to a few clustered points), and a small patch of points far from
-// its communities' origins moves with that lean by more than its spread
+// a community's origin moves with that lean by more than its spread
 // allows; the other edges alone say where its points belong. Before that, a
 // disagreement that is drift rather than a fault is told apart: if
 // every edge beyond the bound is confirmed by the images its two
@@ -57,16 +58,17 @@
 // still join the merged model later): a community that drifts or broke
 // inside itself cannot be aligned to all its neighbours by one similarity,
 // and keeping it by its last edge would bend the merged model. An edge that
-// lies on no cycle of kept edges (a bridge) has zero residuals whatever it
-// is worth: it is kept only if the images both communities registered
-// confirm it, at least two of them placed alike by the two models under its
-// similarity and at most one not; full support (many inliers) stands in
-// for the images placed alike, and fewer placed elsewhere than alike do not
-// veto it. Right links place all their shared images alike but for single
-// borrowed images placed wrongly by one model, while the wrong bridges
-// measured placed half of theirs elsewhere or had none (docs/design.md). If
-// the kept edges no longer connect all communities, every connected part
-// gets its own frame, since a wrong merge is worse than two models.
+// lies on no cycle of kept edges (a bridge) is fitted as it is, right or
+// wrong, and not judged by the bound: it is kept only if the images both
+// communities registered confirm it, at least two of them placed alike by
+// the two models under its similarity and at most one not; full support (many
+// inliers) stands in for the images placed alike, and fewer placed elsewhere
+// than alike do not veto it. Right links place all their shared images alike
+// but for single borrowed images placed wrongly by one model, while the wrong
+// bridges measured placed half of theirs elsewhere or had none
+// (docs/design.md). If the kept edges no longer connect all communities, every
+// connected part gets its own frame, since a wrong merge is worse than two
+// models.
 //
 // Before any averaging, an edge that its shared images contradict (at
 // least two of them placed elsewhere, and no fewer than placed alike) is
@@ -108,9 +110,11 @@ struct SimilarityAveragingOptions {
   // L1 (for comparison only: not robust to wrong edges).
   bool least_squares = false;
 
-  // An edge is rejected when, after averaging, the median distance between
-  // the two placements of its inlier points exceeds this fraction of their
-  // spread (EdgeReport::relative_displacement).
+  // An edge on a cycle is rejected when, after averaging, the median
+  // distance between the two placements of its inlier points exceeds this
+  // fraction of their spread (EdgeReport::relative_displacement), unless it
+  // is its part's only such edge and the other edges place its points
+  // within it (see above).
   double max_relative_displacement = 0.2;
 
   // Rounds of rejection and re-averaging (0: keep every edge).
@@ -180,8 +184,8 @@ struct SimilarityAveragingOptions {
 struct SimilarityAveragingResult {
   struct EdgeReport {
     // The median distance between the two placements of the edge's inlier
-    // points in the world frame, relative to their spread: the one residual
-    // an edge is judged by.
+    // points in the world frame, relative to their spread: the residual an
+    // edge is judged by (see max_relative_displacement).
     double relative_displacement = 0.0;
     // How far the edge's own rotation and scale ratio are from the
     // averaging's (degrees, |log(s_i / (s_j s_ij))|), reported only.
@@ -195,6 +199,9 @@ struct SimilarityAveragingResult {
     // Left out from the start: its shared images contradict it (see
     // min_num_contradicting_shared_images).
     bool contradicted = false;
+    // Dropped with one of its communities, which left the merge (see
+    // min_relative_size).
+    bool community_left = false;
   };
 
   // Part (connected by kept edges) of each community, 0..NumParts()-1,

@@ -807,7 +807,7 @@ Problem MakeDriftingLoop(const int num_communities,
   }
   // The small community's links see little of it: their points spread a
   // fifth as far, so in units of their spread they are the first to exceed
-  // the bounds (as the 29-image walkway piece of a 10,050-image loop did).
+  // the bound (as the 29-image walkway piece of a 10,050-image loop did).
   for (RelativeSimilarity& edge : problem.edges) {
     if (edge.community1 != num_communities / 2 &&
         edge.community2 != num_communities / 2) {
@@ -857,7 +857,7 @@ TEST(AverageSimilarities, DriftAroundALongLoopIsSpreadOverItsEdges) {
 TEST(AverageSimilarities, DisagreementNotConfirmedBySharedImagesIsNotSpread) {
   // The same loop, but one of every edge's shared images is placed
   // elsewhere by one of its models: nothing vouches for the similarities
-  // beyond the bounds, and the small community leaves as before.
+  // beyond the bound, and the small community leaves as before.
   const Problem problem = MakeDriftingLoop(30, 0.6, /*num_agreeing=*/5);
   const SimilarityAveragingResult result = AverageSimilarities(
       problem.Communities(), problem.edges, SimilarityAveragingOptions());
@@ -896,7 +896,7 @@ TEST(AverageSimilarities, ShiftedSimilarityIsNotTakenForDrift) {
   // A loop of 30 communities without drift, but the small community's link
   // to its next shifted by 9 units (3 of its spreads: a period of repeated
   // structure). L1 puts the loop's gap on it; spread over the loop in least
-  // squares it would fit within the bounds (0.1 of its spreads). Its shared
+  // squares it would fit within the bound (0.1 of its spreads). Its shared
   // images are all placed alike by count (within the check's 1 spread
   // they could be), but the similarity moves their copies 3 spreads apart:
   // it is no drift, and it is dropped.
@@ -917,7 +917,7 @@ TEST(AverageSimilarities, ShiftedSimilarityIsNotTakenForDrift) {
       problem.Communities(), problem.edges, SimilarityAveragingOptions());
   EXPECT_FALSE(result.edges[shifted].kept);
 
-  // Had its shared images' copies been as close as the bounds ask, it would
+  // Had its shared images' copies been as close as the bound asks, it would
   // have been taken for drift and spread over the loop.
   edge.max_shared_image_relative_distance = 0.1;
   const SimilarityAveragingResult spread = AverageSimilarities(
@@ -984,7 +984,7 @@ RelativeSimilarity PatchEdge(const Problem& problem,
 
 TEST(AverageSimilarities, WeakLinkClosingACycleIsJudgedByTheOtherLinks) {
   // Three communities around a loop, closed by a weak link: 12 inliers on a
-  // small patch far from the communities' origins, its points right but its
+  // small patch far from community 0's origin, its points right but its
   // rotation 6.6 degrees off (a similarity fitted to a few clustered points;
   // measured so on a generated loop). Averaged with it in, the rotation
   // averaging leans a little toward it, which moves its patch by more than
@@ -1028,11 +1028,41 @@ TEST(AverageSimilarities, WeakLinkClosingACycleIsJudgedByTheOtherLinks) {
     point += problem.world_from_community[2].rotation().inverse() *
              Eigen::Vector3d(0.3, 0, 0) / 0.9;
   }
-  EXPECT_FALSE(AverageSimilarities(problem.Communities(),
-                                   problem.edges,
-                                   SimilarityAveragingOptions())
-                   .edges[2]
-                   .kept);
+  const SimilarityAveragingResult shifted = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+  EXPECT_EQ(shifted.NumParts(), 1);
+  EXPECT_TRUE(shifted.edges[0].kept);
+  EXPECT_TRUE(shifted.edges[1].kept);
+  EXPECT_FALSE(shifted.edges[2].kept);
+}
+
+TEST(AverageSimilarities, BridgeIsNotJudgedByItsOwnFit) {
+  // Two communities joined by one link whose own points fit it loosely
+  // (half a spread): no other link disagrees with it, and its shared images
+  // confirm it, so it joins them.
+  std::mt19937 rng(4);
+  Problem problem;
+  problem.sizes = {50, 40};
+  problem.world_from_community = {Sim3d(),
+                                  Sim3d(1.2,
+                                        Eigen::Quaterniond(Eigen::AngleAxisd(
+                                            0.4, Eigen::Vector3d::UnitZ())),
+                                        Eigen::Vector3d(5, 1, 0))};
+  RelativeSimilarity edge =
+      PatchEdge(problem, 0, 1, Eigen::Vector3d(2, 0, 1), 1.0, 60, &rng);
+  std::normal_distribution<double> noise(0, 0.5);
+  for (Eigen::Vector3d& point : edge.points2) {
+    point += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+  }
+  edge.num_shared_images = 3;
+  edge.num_agreeing_shared_images = 3;
+  problem.edges = {edge};
+  const SimilarityAveragingResult result = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+  EXPECT_GT(result.edges[0].relative_displacement,
+            SimilarityAveragingOptions().max_relative_displacement);
+  EXPECT_TRUE(result.edges[0].kept);
+  EXPECT_EQ(result.NumParts(), 1);
 }
 
 }  // namespace
