@@ -368,28 +368,19 @@ struct AveragedPart {
 };
 
 // The displacement of `edge`'s inlier points where the other edges of its
-// part, averaged without it, place its communities (infinite if they do not
-// join them or their averaging fails).
+// part, averaged without it, place its communities (infinite if their
+// averaging fails). `edge` lies on a cycle of the part's edges, so the
+// others still join every community of the part.
 double DisplacementUnderOtherEdges(const AveragedPart& part,
                                    const RelativeSimilarity& edge,
                                    const SimilarityAveragingOptions& options,
                                    std::vector<Sim3d> world_from_community) {
   std::vector<const RelativeSimilarity*> others;
   std::vector<double> other_weights;
-  std::vector<std::pair<int, int>> other_pairs;
   for (size_t e = 0; e < part.edges.size(); ++e) {
     if (part.edges[e] != &edge) {
       others.push_back(part.edges[e]);
       other_weights.push_back(part.weights[e]);
-      other_pairs.emplace_back(part.edges[e]->community1,
-                               part.edges[e]->community2);
-    }
-  }
-  const std::vector<int> labels = ConnectedComponentLabels(
-      static_cast<int>(world_from_community.size()), other_pairs);
-  for (const int node : part.nodes) {
-    if (labels[node] != labels[part.reference]) {
-      return std::numeric_limits<double>::infinity();
     }
   }
   if (!AveragePart(part.nodes,
@@ -612,8 +603,8 @@ SimilarityAveragingResult AverageSimilarities(
     // weaker community if it cannot be trusted on its own.
     std::vector<int> to_exclude;
     bool rejected = false;
-    // With reject_worst_first, the edge beyond the bound by the largest
-    // factor in each part (by its reference's label): excess and index.
+    // With reject_worst_first, the edge furthest beyond the bound in each
+    // part (by its reference's label): displacement and index.
     std::map<int, std::pair<double, size_t>> worst_of_part;
     std::map<int, int> num_beyond_bound;  // By the parts' labels.
     std::vector<size_t> to_reject;
@@ -645,11 +636,10 @@ SimilarityAveragingResult AverageSimilarities(
         to_reject.push_back(e);
         continue;
       }
-      const double excess = displacement / options.max_relative_displacement;
       auto& worst =
           worst_of_part.emplace(label, std::make_pair(0.0, e)).first->second;
-      if (excess > worst.first) {
-        worst = {excess, e};
+      if (displacement > worst.first) {
+        worst = {displacement, e};
       }
     }
     for (const auto& [label, worst] : worst_of_part) {
