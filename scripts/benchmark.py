@@ -196,6 +196,20 @@ SCENES["walkway_thin"] = dict(FAMILIES["walkway"], num_points_per_link=400,
 # (480 images).
 SCENES["walkway_four"] = dict(FAMILIES["walkway"], num_clusters=4,
                               num_images_per_link=60, **CLEAN)
+# Families no rule of the merge was set on (run as draws): five small
+# clusters joined by short walkways, where the mapper leaves most images out
+# and writes several models; the loop family with a camera per image and a
+# real matcher's noise; and the loop family with half the points, each seen
+# from at most 30 units instead of 40, and noisier keypoints.
+SCENES["pent_noisy"] = dict(num_clusters=5, num_images_per_cluster=30,
+                            num_images_per_link=15, close_loop=1, **NOISY)
+SCENES["camloop_epipolar"] = dict(FAMILIES["loop"], single_camera=0,
+                                  focal_length_noise=0.05, keypoint_noise=1.0,
+                                  **EPIPOLAR)
+SCENES["sparse_noisy"] = dict(FAMILIES["loop"], num_points_per_cluster=1500,
+                              num_points_per_link=500,
+                              max_viewing_distance=30, keypoint_noise=1.2,
+                              **NOISY)
 for family, knobs in FAMILIES.items():
     SCENES[family + "_clean"] = dict(knobs, **CLEAN)
     SCENES[family + "_noisy"] = dict(knobs, **NOISY)

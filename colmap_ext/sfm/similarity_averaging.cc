@@ -619,17 +619,21 @@ SimilarityAveragingResult AverageSimilarities(
       if (EdgeWithinBound(result.edges[e], options.max_relative_displacement)) {
         continue;
       }
+      // A bridge is placed by its own similarity alone: its displacement is
+      // its own fit's residual, no other edge's disagreement, and the bridge
+      // rule below judges it. It is no cycle's link, so it does not count
+      // among its part's links beyond the bound either.
+      const bool finite = std::isfinite(displacement);
+      if (finite && IsBridge(e)) {
+        continue;
+      }
       const int label = component[edge.community1];
       ++num_beyond_bound[label];
       // A non-finite displacement is rejected in any round. An edge beyond
       // the bound that its shared images confirm waits while unconfirmed
-      // ones of its part go (SpreadCycleDrift). A bridge is placed by its
-      // own similarity alone: its displacement is its own fit's residual, no
-      // other edge's disagreement, and the bridge rule below judges it.
-      const bool finite = std::isfinite(displacement);
+      // ones of its part go (SpreadCycleDrift).
       const bool waits = finite && deferred.count(&edge) > 0;
-      if (waits || (round >= max_num_rounds && finite) ||
-          (finite && IsBridge(e))) {
+      if (waits || (round >= max_num_rounds && finite)) {
         continue;
       }
       if (!finite || !options.reject_worst_first) {

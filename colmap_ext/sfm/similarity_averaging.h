@@ -40,7 +40,8 @@
 // bound are reported and left out, the one furthest beyond it in each part
 // first, and the averaging is repeated (wrong edges pull the solution, so
 // that right ones next to them can look wrong until they are out). A
-// part's only edge beyond the bound (with `reject_worst_first`) stays, its
+// part's only edge beyond the bound (with `reject_worst_first`; a bridge,
+// which the bridge rule below judges, does not count) stays, its
 // displacement as averaged with it in, where the part's other edges,
 // averaged without it, place its points within the bound: averaged with it
 // in, the rotations lean toward its rotation (degrees off where it was

@@ -982,14 +982,14 @@ RelativeSimilarity PatchEdge(const Problem& problem,
   return edge;
 }
 
-TEST(AverageSimilarities, WeakLinkClosingACycleIsJudgedByTheOtherLinks) {
-  // Three communities around a loop, closed by a weak link: 12 inliers on a
-  // small patch far from community 0's origin, its points right but its
-  // rotation 6.6 degrees off (a similarity fitted to a few clustered points;
-  // measured so on a generated loop). Averaged with it in, the rotation
-  // averaging leans a little toward it, which moves its patch by more than
-  // the bound; the other two links alone place its points where they are.
-  std::mt19937 rng(3);
+// Three communities around a loop, closed by a weak link (edge 2): 12
+// inliers on a small patch far from community 0's origin, its points right
+// but its rotation 6.6 degrees off (a similarity fitted to a few clustered
+// points; measured so on a generated loop). Averaged with it in, the
+// rotation averaging leans a little toward it, which moves its patch by
+// more than the bound; the other two links alone place its points where
+// they are.
+Problem MakeLoopClosedByWeakLink(std::mt19937* rng) {
   Problem problem;
   problem.sizes = {80, 70, 60};
   problem.world_from_community = {
@@ -1003,18 +1003,23 @@ TEST(AverageSimilarities, WeakLinkClosingACycleIsJudgedByTheOtherLinks) {
                 2.7, Eigen::Vector3d(0.1, -1, 0.2).normalized())),
             Eigen::Vector3d(2.3, -1.5, -7.0))};
   problem.edges.push_back(
-      PatchEdge(problem, 0, 1, Eigen::Vector3d(4, 0, -1), 0.7, 275, &rng));
+      PatchEdge(problem, 0, 1, Eigen::Vector3d(4, 0, -1), 0.7, 275, rng));
   problem.edges.push_back(
-      PatchEdge(problem, 1, 2, Eigen::Vector3d(5, -1, -4), 0.6, 203, &rng));
+      PatchEdge(problem, 1, 2, Eigen::Vector3d(5, -1, -4), 0.6, 203, rng));
   RelativeSimilarity weak =
-      PatchEdge(problem, 0, 2, Eigen::Vector3d(1, -1, -6), 0.25, 12, &rng);
+      PatchEdge(problem, 0, 2, Eigen::Vector3d(1, -1, -6), 0.25, 12, rng);
   weak.second_from_first.rotation() =
       Eigen::Quaterniond(
           Eigen::AngleAxisd(DegToRad(6.6), Eigen::Vector3d::UnitX())) *
       weak.second_from_first.rotation();
   problem.edges.push_back(weak);
   problem.is_outlier.assign(3, false);
+  return problem;
+}
 
+TEST(AverageSimilarities, WeakLinkClosingACycleIsJudgedByTheOtherLinks) {
+  std::mt19937 rng(3);
+  Problem problem = MakeLoopClosedByWeakLink(&rng);
   const SimilarityAveragingResult result = AverageSimilarities(
       problem.Communities(), problem.edges, SimilarityAveragingOptions());
   EXPECT_EQ(result.NumParts(), 1);
@@ -1034,6 +1039,39 @@ TEST(AverageSimilarities, WeakLinkClosingACycleIsJudgedByTheOtherLinks) {
   EXPECT_TRUE(shifted.edges[0].kept);
   EXPECT_TRUE(shifted.edges[1].kept);
   EXPECT_FALSE(shifted.edges[2].kept);
+}
+
+TEST(AverageSimilarities, BridgeBeyondTheBoundLeavesACyclesLinkToItsJudge) {
+  // The loop above with a fourth community hung on community 1 by a bridge
+  // whose own points fit it loosely. The bridge is no link of the cycle:
+  // the weak link is still its part's only one beyond the bound, judged
+  // where the other links place it, and kept.
+  std::mt19937 rng(3);
+  Problem problem = MakeLoopClosedByWeakLink(&rng);
+  problem.sizes.push_back(50);
+  problem.world_from_community.emplace_back(
+      1.1,
+      Eigen::Quaterniond(Eigen::AngleAxisd(-0.8, Eigen::Vector3d::UnitY())),
+      Eigen::Vector3d(14, 0.5, -2));
+  RelativeSimilarity bridge =
+      PatchEdge(problem, 1, 3, Eigen::Vector3d(11, 0, -2), 1.0, 60, &rng);
+  std::normal_distribution<double> noise(0, 0.5);
+  for (Eigen::Vector3d& point : bridge.points2) {
+    point += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+  }
+  bridge.num_shared_images = 3;
+  bridge.num_agreeing_shared_images = 3;
+  problem.edges.push_back(bridge);
+  problem.is_outlier.push_back(false);
+
+  const SimilarityAveragingResult result = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+  const double bound = SimilarityAveragingOptions().max_relative_displacement;
+  EXPECT_EQ(result.NumParts(), 1);
+  EXPECT_GT(result.edges[3].relative_displacement, bound);
+  EXPECT_TRUE(result.edges[3].kept);
+  EXPECT_GT(result.edges[2].relative_displacement, bound);
+  EXPECT_TRUE(result.edges[2].kept);
 }
 
 TEST(AverageSimilarities, BridgeIsNotJudgedByItsOwnFit) {
