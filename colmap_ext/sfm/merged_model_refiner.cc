@@ -395,35 +395,78 @@ size_t MergedModelRefiner::RegisterRemainingImages(const bool log_none) {
   const size_t num_again_before = NumRegisteredAgain();
   num_tried_shared_images_.assign(offered_models_.size(), 0);
   RegisterOfferedBlocks();
-  while (true) {
-    bool registered = false;
-    for (const image_t image_id : mapper_->FindNextImages(incremental_)) {
-      const auto filterings = num_filterings_.find(image_id);
-      const int num_filterings =
-          filterings == num_filterings_.end() ? 0 : filterings->second;
-      if (num_filterings < 3 &&
-          mapper_->RegisterNextImage(incremental_, image_id) &&
-          HoldCamerasFilteredTwice(image_id)) {
-        // The image registers its frame: all the frame's images are
-        // triangulated.
-        const Frame& frame = *reconstruction_->Image(image_id).FramePtr();
-        for (const data_t& data_id : frame.ImageIds()) {
-          mapper_->TriangulateImage(triangulation_, data_id.id);
-        }
-        mapper_->IterativeLocalRefinement(
-            mapper_options_.ba_local_max_refinements,
-            mapper_options_.ba_local_max_refinement_change,
-            incremental_,
-            mapper_options_.LocalBundleAdjustment(),
-            triangulation_,
-            image_id);
-        registered = true;
-        RegisterOfferedBlocks();
-        break;  // The next image is chosen with this one's points.
-      }
+  // As the incremental mapper (IncrementalPipeline): each image is tried
+  // against the model's points first and, where none registers so and
+  // Mapper.structure_less_registration_fallback is on, by structure-less
+  // resection from its correspondences with the registered images.
+  std::vector<bool> structure_less_passes;
+  if (!mapper_options_.structure_less_registration_only) {
+    structure_less_passes.push_back(false);
+  }
+  if (mapper_options_.structure_less_registration_fallback ||
+      mapper_options_.structure_less_registration_only) {
+    structure_less_passes.push_back(true);
+  }
+  const auto register_image = [this](const image_t image_id,
+                                     const bool structure_less) {
+    const auto filterings = num_filterings_.find(image_id);
+    if (filterings != num_filterings_.end() && filterings->second >= 3) {
+      return false;
     }
-    if (!registered) {
-      break;
+    if (!structure_less) {
+      return mapper_->RegisterNextImage(incremental_, image_id) &&
+             HoldCamerasFilteredTwice(image_id);
+    }
+    // Its minimal solver takes the camera's intrinsics as given: only those
+    // that registered images share and have estimated are known.
+    const auto& num_reg_images_per_camera = mapper_->NumRegImagesPerCamera();
+    const auto camera_images = num_reg_images_per_camera.find(
+        reconstruction_->Image(image_id).CameraId());
+    if (camera_images == num_reg_images_per_camera.end() ||
+        camera_images->second == 0) {
+      return false;
+    }
+    const size_t num_correspondences =
+        mapper_->ObservationManager().NumVisibleCorrespondences(image_id);
+    const auto tried = structure_less_tried_.find(image_id);
+    if (tried != structure_less_tried_.end() &&
+        num_correspondences <= tried->second) {
+      return false;
+    }
+    if (!mapper_->RegisterNextStructureLessImage(incremental_, image_id)) {
+      structure_less_tried_[image_id] = num_correspondences;
+      return false;
+    }
+    return HoldCamerasFilteredTwice(image_id);
+  };
+  bool registered = true;
+  while (registered) {
+    registered = false;
+    for (const bool structure_less : structure_less_passes) {
+      for (const image_t image_id :
+           mapper_->FindNextImages(incremental_, structure_less)) {
+        if (register_image(image_id, structure_less)) {
+          registered = true;
+          // The image registers its frame: all the frame's images are
+          // triangulated.
+          const Frame& frame = *reconstruction_->Image(image_id).FramePtr();
+          for (const data_t& data_id : frame.ImageIds()) {
+            mapper_->TriangulateImage(triangulation_, data_id.id);
+          }
+          mapper_->IterativeLocalRefinement(
+              mapper_options_.ba_local_max_refinements,
+              mapper_options_.ba_local_max_refinement_change,
+              incremental_,
+              mapper_options_.LocalBundleAdjustment(),
+              triangulation_,
+              image_id);
+          RegisterOfferedBlocks();
+          break;  // The next image is chosen with this one's points.
+        }
+      }
+      if (registered) {
+        break;
+      }
     }
   }
   const size_t num_registered =

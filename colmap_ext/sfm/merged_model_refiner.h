@@ -34,7 +34,10 @@ struct MergedModelRefinementOptions {
   // alignment, again after the triangulation anew and after every
   // adjustment (each image at most Mapper.max_reg_trials times per loading
   // of the correspondences or block registration); a round that registered
-  // images is followed by another.
+  // images is followed by another. As the incremental mapper, an image that
+  // no registration on the model's points takes is tried by structure-less
+  // resection (Mapper.structure_less_registration_fallback, on by default),
+  // where its camera is one that registered images share.
   bool register_remaining_images = true;
 
   // Models of communities whose images are offered to this refinement
@@ -281,6 +284,11 @@ class MergedModelRefiner {
   // How often each image was filtered for an implausible camera (see
   // FilterFrames).
   std::unordered_map<image_t, int> num_filterings_;
+  // Per image that structure-less resection failed to register, its
+  // correspondences with the registered images at that try: it is tried
+  // again only with more (a try takes seconds, and the merged model changes
+  // little between the rounds).
+  std::unordered_map<image_t, size_t> structure_less_tried_;
   // Per offered model: registered as a block, and the images it shared with
   // the model at the last try of this round (a try with no new one is not
   // repeated).

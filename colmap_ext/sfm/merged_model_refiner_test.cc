@@ -20,14 +20,17 @@
 namespace colmap {
 namespace {
 
-// A generated scene of two clusters in its database, and its ground truth as
-// a merged model of two communities (the clusters) to refine.
+// A generated scene of two clusters (or one; one camera for all images or one
+// per image) in its database, and its ground truth as a merged model of two
+// communities (the clusters) to refine.
 struct RefinerScene {
-  RefinerScene() {
+  explicit RefinerScene(const int num_clusters = 2,
+                        const bool single_camera = true) {
     SyntheticSceneOptions scene_options;
-    scene_options.num_clusters = 2;
+    scene_options.num_clusters = num_clusters;
+    scene_options.single_camera = single_camera;
     scene_options.num_images_per_cluster = 15;
-    scene_options.num_images_per_link = 10;
+    scene_options.num_images_per_link = num_clusters > 1 ? 10 : 0;
     scene_options.close_loop = false;
     scene_options.keypoint_noise = 0.5;
     scene_options.seed = 12;
@@ -58,8 +61,9 @@ struct RefinerScene {
     return image_ids;
   }
 
-  MergedModelRefinementSummary Refine() {
-    IncrementalPipelineOptions mapper_options;
+  MergedModelRefinementSummary Refine(
+      IncrementalPipelineOptions mapper_options =
+          IncrementalPipelineOptions()) {
     mapper_options.num_threads = 1;
     return MergedModelRefiner(
                MergedModelRefinementOptions(),
@@ -145,6 +149,38 @@ TEST(MergedModelRefiner, RegistersAgainAGroupItsMatchesPlaceElsewhere) {
   EXPECT_EQ(model.NumRegImages(), scene.scene.ground_truth.NumRegImages());
   EXPECT_LT(EvaluateModel(model, scene.scene.ground_truth).max_position_error,
             0.01 * scene.truth.extent);
+}
+
+// COLMAP's incremental mapper registers an image that too few of its
+// matches to the model's points place by structure-less resection, from its
+// matches with the registered images
+// (Mapper.structure_less_registration_fallback, on by default; `_only`: that
+// alone), and the refinement registers the images no community registered
+// as the mapper does, but only where the image's camera is known: the
+// resection takes the intrinsics as given, and an image's own camera holds
+// only the database's guess (on open chains with a camera per image it
+// placed images far off).
+TEST(MergedModelRefiner, RegistersStructureLessWhereTheCameraIsKnown) {
+  for (const bool single_camera : {true, false}) {
+    RefinerScene scene(/*num_clusters=*/1, single_camera);
+    Reconstruction& model = *scene.model;
+    const image_t image_id = scene.FirstClusterImages().front();
+    model.DeRegisterFrame(model.Image(image_id).FrameId());
+
+    IncrementalPipelineOptions mapper_options;
+    mapper_options.structure_less_registration_only = true;
+    const MergedModelRefinementSummary summary = scene.Refine(mapper_options);
+    // The refinement drops the images it leaves out from the model.
+    const bool registered =
+        model.ExistsImage(image_id) && model.Image(image_id).HasPose();
+    EXPECT_EQ(registered, single_camera);
+    EXPECT_EQ(summary.num_newly_registered_images, single_camera ? 1 : 0);
+    EXPECT_EQ(
+        model.NumRegImages(),
+        scene.scene.ground_truth.NumRegImages() - (single_camera ? 0 : 1));
+    EXPECT_LT(EvaluateModel(model, scene.scene.ground_truth).max_position_error,
+              0.01 * scene.truth.extent);
+  }
 }
 
 }  // namespace
