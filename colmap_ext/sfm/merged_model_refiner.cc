@@ -439,35 +439,36 @@ size_t MergedModelRefiner::RegisterRemainingImages(const bool log_none) {
     }
     return HoldCamerasFilteredTwice(image_id);
   };
-  bool registered = true;
-  while (registered) {
-    registered = false;
+  // Registers the best next image that registers, with its local
+  // adjustment, and offers the blocks again; false where none registers.
+  const auto register_next_image = [&]() {
     for (const bool structure_less : structure_less_passes) {
       for (const image_t image_id :
            mapper_->FindNextImages(incremental_, structure_less)) {
-        if (register_image(image_id, structure_less)) {
-          registered = true;
-          // The image registers its frame: all the frame's images are
-          // triangulated.
-          const Frame& frame = *reconstruction_->Image(image_id).FramePtr();
-          for (const data_t& data_id : frame.ImageIds()) {
-            mapper_->TriangulateImage(triangulation_, data_id.id);
-          }
-          mapper_->IterativeLocalRefinement(
-              mapper_options_.ba_local_max_refinements,
-              mapper_options_.ba_local_max_refinement_change,
-              incremental_,
-              mapper_options_.LocalBundleAdjustment(),
-              triangulation_,
-              image_id);
-          RegisterOfferedBlocks();
-          break;  // The next image is chosen with this one's points.
+        if (!register_image(image_id, structure_less)) {
+          continue;
         }
-      }
-      if (registered) {
-        break;
+        // The image registers its frame: all the frame's images are
+        // triangulated.
+        const Frame& frame = *reconstruction_->Image(image_id).FramePtr();
+        for (const data_t& data_id : frame.ImageIds()) {
+          mapper_->TriangulateImage(triangulation_, data_id.id);
+        }
+        mapper_->IterativeLocalRefinement(
+            mapper_options_.ba_local_max_refinements,
+            mapper_options_.ba_local_max_refinement_change,
+            incremental_,
+            mapper_options_.LocalBundleAdjustment(),
+            triangulation_,
+            image_id);
+        RegisterOfferedBlocks();
+        return true;
       }
     }
+    return false;
+  };
+  // The next image is chosen with the last one's points.
+  while (register_next_image()) {
   }
   const size_t num_registered =
       reconstruction_->NumRegImages() - num_reg_images_before;
