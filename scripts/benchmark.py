@@ -94,9 +94,9 @@ line per scene gives each method's median over the seeds with its range and
 on how many seeds the bar's checks held.
 
 `--draws N robustness` runs every robustness family (loop, chain, dense and
-walkway, each `_clean`, `_noisy` with random wrong matches and `_epipolar`
-with wrong matches that satisfy their pair's geometry, as a real matcher's:
-FAMILIES below) as N draws, scene seeds 1..N, and gives one table:
+walkway, each `_clean`, `_random` with a quarter of the raw matches wrong at
+random and `_mixed` with some of them near their epipolar line, all
+verified by COLMAP: FAMILIES below) as N draws, scene seeds 1..N, and gives one table:
 community_mapper against the mapper on every draw, and per family on how
 many draws it had one model where the mapper has one, every image the
 mapper registers, a median error at most 1.5x and no worse than the
@@ -150,11 +150,11 @@ SCENES = {
                       num_images_per_link=60, close_loop=1),
     "courtyard": dict(num_clusters=3, num_images_per_cluster=60,
                       num_images_per_link=80, close_loop=1,
-                      outlier_match_ratio=0.03, num_false_pairs=30, seed=5),
+                      seed=5),
     "chain": dict(num_clusters=4, num_images_per_cluster=80,
                   num_images_per_link=60, close_loop=0, single_camera=0,
                   focal_length_noise=0.05, keypoint_noise=1.0,
-                  outlier_match_ratio=0.08, num_false_pairs=30),
+                  num_false_pairs=30),
     "dense": dict(num_clusters=4, num_images_per_cluster=100,
                   num_images_per_link=40, close_loop=1,
                   max_viewing_distance=90, seed=4),
@@ -164,14 +164,19 @@ SCENES = {
                 rig_baseline=0.3),
 }
 # The robustness families: each kind of generated scene small enough to be
-# drawn many times (--draws), clean, with noisy matches (random wrong
-# matches among the verified ones, which a real verification would mostly
-# have rejected, and false pairs), and with a real matcher's noise (wrong
-# matches that satisfy their pair's epipolar geometry, and false pairs).
-CLEAN = dict(outlier_match_ratio=0, num_false_pairs=0)
-NOISY = dict(outlier_match_ratio=0.03, num_false_pairs=30)
-EPIPOLAR = dict(outlier_match_ratio=0.03, num_false_pairs=30,
-                epipolar_outliers=1)
+# drawn many times (--draws), with its raw matches verified by COLMAP's own
+# geometric verification as a matcher's: `_clean` without wrong matches,
+# `_random` with a quarter of every pair's raw matches wrong at random (which
+# the verification rejects), `_mixed` with a quarter of them wrong, a quarter
+# of those near their epipolar line (which it keeps, as repeated texture
+# along the line makes them); both with pairs matched by chance and pairs
+# matched on repeated planar texture (the same poster on two walls).
+CLEAN = dict(wrong_match_fraction=0, num_false_pairs=0,
+             num_repeated_texture_pairs=0)
+RANDOM = dict(wrong_match_fraction=0.25, epipolar_wrong_match_share=0,
+              num_false_pairs=30, num_repeated_texture_pairs=10)
+MIXED = dict(wrong_match_fraction=0.25, epipolar_wrong_match_share=0.25,
+             num_false_pairs=30, num_repeated_texture_pairs=10)
 FAMILIES = {
     "loop": dict(num_clusters=3, num_images_per_cluster=40,
                  num_images_per_link=30, close_loop=1),
@@ -201,22 +206,25 @@ SCENES["walkway_four"] = dict(FAMILIES["walkway"], num_clusters=4,
 # and writes several models; the loop family with a camera per image and a
 # real matcher's noise; and the loop family with half the points, each seen
 # from at most 30 units instead of 40, and noisier keypoints.
-SCENES["pent_noisy"] = dict(num_clusters=5, num_images_per_cluster=30,
-                            num_images_per_link=15, close_loop=1, **NOISY)
-SCENES["camloop_epipolar"] = dict(FAMILIES["loop"], single_camera=0,
-                                  focal_length_noise=0.05, keypoint_noise=1.0,
-                                  **EPIPOLAR)
-SCENES["sparse_noisy"] = dict(FAMILIES["loop"], num_points_per_cluster=1500,
+SCENES["pent_random"] = dict(num_clusters=5, num_images_per_cluster=30,
+                             num_images_per_link=15, close_loop=1, **RANDOM)
+SCENES["camloop_mixed"] = dict(FAMILIES["loop"], single_camera=0,
+                               focal_length_noise=0.05, keypoint_noise=1.0,
+                               **MIXED)
+SCENES["sparse_random"] = dict(FAMILIES["loop"], num_points_per_cluster=1500,
                               num_points_per_link=500,
                               max_viewing_distance=30, keypoint_noise=1.2,
-                              **NOISY)
+                              **RANDOM)
 for family, knobs in FAMILIES.items():
     SCENES[family + "_clean"] = dict(knobs, **CLEAN)
-    SCENES[family + "_noisy"] = dict(knobs, **NOISY)
-    SCENES[family + "_epipolar"] = dict(knobs, **EPIPOLAR)
-# Realism shared by all generated scenes (a scene's own knobs win).
-COMMON = dict(keypoint_noise=0.7, outlier_match_ratio=0.05,
-              num_false_pairs=20, seed=3)
+    SCENES[family + "_random"] = dict(knobs, **RANDOM)
+    SCENES[family + "_mixed"] = dict(knobs, **MIXED)
+# Realism shared by all generated scenes (a scene's own knobs win): a
+# matcher's raw matches, a quarter of them wrong, pairs matched by chance
+# and on repeated texture, all verified by COLMAP.
+COMMON = dict(keypoint_noise=0.7, wrong_match_fraction=0.25,
+              epipolar_wrong_match_share=0.25, num_false_pairs=20,
+              num_repeated_texture_pairs=10, seed=3)
 
 SHARED_DATA = os.environ.get(
     "SHARED_DATA_DIR", os.path.join(os.path.dirname(ROOT), "shared", "data"))
@@ -288,7 +296,7 @@ GROUPS = {
     "sb_sequences": ["sbseq5", "sbseq10", "sbseq20"],
     "strecha_split": ["castle_split", "herzjesu_split"],
     "robustness": [family + suffix for family in FAMILIES
-                   for suffix in ("_clean", "_noisy", "_epipolar")],
+                   for suffix in ("_clean", "_random", "_mixed")],
 }
 
 METHODS = ["mapper", "community", "hierarchical", "hier_fair", "global"]

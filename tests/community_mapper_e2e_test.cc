@@ -105,7 +105,8 @@ class CommunityMapperEndToEnd : public ::testing::Test {
  protected:
   // One scene for the suite: three landmark clusters of 30 images joined in
   // a loop by walkways of 20 images each (150 images), with keypoint noise,
-  // 5% wrong matches in verified pairs and 10 falsely verified pairs.
+  // a quarter of the raw matches wrong, 10 pairs matched by chance and 5 on
+  // repeated texture, all verified by COLMAP.
   static void SetUpTestSuite() {
     const std::filesystem::path root =
         std::filesystem::path(::testing::TempDir()) / "colmap_ext_tests" /
@@ -115,7 +116,7 @@ class CommunityMapperEndToEnd : public ::testing::Test {
         root / "scene",
         "--num_clusters 3 --num_images_per_cluster 30 "
         "--num_images_per_link 20 --keypoint_noise 0.7 "
-        "--outlier_match_ratio 0.05 --num_false_pairs 10 --seed 11"));
+        "--num_false_pairs 10 --num_repeated_texture_pairs 5 --seed 11"));
     output_path_ = new std::filesystem::path(root / "sparse");
     log_ = new std::string;
     status_ = RunMapper("community_mapper", *scene_, *output_path_, log_);
@@ -655,7 +656,7 @@ TEST(CommunityMapperRepeatedStructure, IdenticalTowersAreNotStacked) {
       test_dir / "scene",
       "--num_clusters 2 --num_images_per_cluster 40 --num_images_per_link 0 "
       "--num_repeated_structure_pairs 40 --keypoint_noise 0.7 "
-      "--outlier_match_ratio 0.03 --seed 2");
+      "--seed 2");
   const std::filesystem::path output_path = test_dir / "sparse";
   std::string log;
   ASSERT_EQ(RunMapper("community_mapper", scene, output_path, &log), 0) << log;
@@ -709,7 +710,7 @@ TEST(CommunityMapperRepeatedStructure, TrueLinksWinOverIdenticalTowers) {
       test_dir / "scene",
       "--num_clusters 3 --num_images_per_cluster 40 --num_images_per_link 25 "
       "--num_repeated_structure_pairs 40 --keypoint_noise 0.7 "
-      "--outlier_match_ratio 0.03 --num_false_pairs 10 --seed 2");
+      "--num_false_pairs 10 --seed 2");
   const std::filesystem::path output_path = test_dir / "sparse";
   std::string log;
   ASSERT_EQ(RunMapper("community_mapper", scene, output_path, &log), 0) << log;

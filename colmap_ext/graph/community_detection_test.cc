@@ -534,7 +534,6 @@ double SmallestClusterShareInOneCommunity(
   scene_options.single_camera = false;
   scene_options.focal_length_noise = 0.05;
   scene_options.keypoint_noise = 1.0;
-  scene_options.outlier_match_ratio = 0.08;
   scene_options.num_false_pairs = 30;
   scene_options.seed = 1;
   const std::shared_ptr<Database> database = Database::Open(

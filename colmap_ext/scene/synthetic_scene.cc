@@ -1,5 +1,6 @@
 #include "colmap_ext/scene/synthetic_scene.h"
 
+#include "colmap_ext/scene/matched_pair_verification.h"
 #include "colmap_ext/scene/model_evaluation.h"
 
 #include "colmap/geometry/essential_matrix.h"
@@ -13,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <random>
 #include <unordered_set>
@@ -29,6 +31,11 @@ constexpr double kCameraHeight = 1.6;
 constexpr double kWallHeight = 8.0;
 constexpr double kWallDistance = 10.0;
 constexpr double kMaxWalkwayTurnDeg = 60.0;
+// The poster repeated on every wall: its width along the wall, the height of
+// its lower edge and its own height.
+constexpr double kPosterWidth = 10.0;
+constexpr double kPosterBottom = 1.0;
+constexpr double kPosterHeight = 5.0;
 // A surface point is seen up to this angle between its normal and the ray.
 constexpr double kMaxSurfaceViewingAngleDeg = 80.0;
 
@@ -68,6 +75,19 @@ struct ScenePoint {
   Eigen::Vector3d xyz;
   // Zero for features visible from every side.
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+};
+
+// Repeated patterns whose copies stand in several places of the scene.
+constexpr int kTowerPattern = 0;
+constexpr int kPosterPattern = 1;
+constexpr int kNumPatterns = 2;
+
+// A point's place in a repeated pattern: the pattern, its index in the
+// pattern's layout and the copy it belongs to; pattern -1: no pattern.
+struct PatternPoint {
+  int pattern = -1;
+  int index = -1;
+  int copy = -1;
 };
 
 struct ScenePose {
@@ -132,11 +152,18 @@ bool SyntheticSceneOptions::Check() const {
   CHECK_OPTION_GE(keypoint_noise, 0);
   CHECK_OPTION_GE(num_distractor_keypoints, 0);
   CHECK_OPTION_GT(max_viewing_distance, 0);
-  CHECK_OPTION_GE(min_num_inliers, 1);
-  CHECK_OPTION_GE(outlier_match_ratio, 0);
+  CHECK_OPTION_GE(min_num_shared_points, 1);
+  CHECK_OPTION_GE(wrong_match_fraction, 0);
+  CHECK_OPTION_LT(wrong_match_fraction, 0.9);
+  CHECK_OPTION_GE(epipolar_wrong_match_share, 0);
+  CHECK_OPTION_LE(epipolar_wrong_match_share, 1);
   CHECK_OPTION_GE(num_false_pairs, 0);
   CHECK_OPTION_GE(false_pair_num_matches, 1);
   CHECK_OPTION_GE(num_repeated_structure_pairs, 0);
+  CHECK_OPTION_GE(num_repeated_texture_pairs, 0);
+  // Copies of the poster stand on two walls at least.
+  CHECK_OPTION(num_repeated_texture_pairs == 0 ||
+               (num_images_per_link > 0 && num_clusters >= 3));
   return true;
 }
 
@@ -185,16 +212,26 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
   }
 
   // With repeated structure, every tower is a copy of the first: tower
-  // point i of every landmark has the same angle and height.
+  // point i of every landmark has the same angle and height. With repeated
+  // texture, every wall carries the same poster.
   const bool repeated_towers = options.num_repeated_structure_pairs > 0;
+  const bool posters = options.num_repeated_texture_pairs > 0;
   const int num_tower_points = (7 * options.num_points_per_cluster) / 10;
   std::vector<std::pair<double, double>> tower_layout;
   std::vector<ScenePoint> points;
-  // Per point: its index in the tower layout, -1 for other points.
-  std::vector<int> tower_point_index;
+  // Per point: where it lies in a repeated pattern, if it does.
+  std::vector<PatternPoint> pattern_points;
+  // Per pattern: where each of its copies stands in the world (towers:
+  // landmark c's copy at its centre; posters: wall l's copy at the middle of
+  // the wall's foot, x along the wall, y towards it, z up).
+  std::vector<Rigid3d> world_from_copy[kNumPatterns];
   for (int c = 0; c < num_clusters; ++c) {
+    world_from_copy[kTowerPattern].emplace_back(
+        Eigen::Quaterniond::Identity(),
+        Eigen::Vector3d(towers[c].x(), towers[c].y(), 0));
     for (int i = 0; i < options.num_points_per_cluster; ++i) {
       ScenePoint point;
+      PatternPoint pattern_point;
       if (i < num_tower_points) {
         if (c == 0 || !repeated_towers) {
           const double angle = random.Uniform(0, 2 * M_PI);
@@ -208,9 +245,10 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
         point.xyz = Eigen::Vector3d(towers[c].x(), towers[c].y(), 0) +
                     kTowerRadius * radial + Eigen::Vector3d(0, 0, height);
         point.normal = radial;
-        tower_point_index.push_back(i);
+        if (repeated_towers) {
+          pattern_point = {kTowerPattern, i, c};
+        }
       } else {
-        tower_point_index.push_back(-1);
         const double angle = random.Uniform(0, 2 * M_PI);
         const double radius = std::sqrt(random.Uniform(
             kTowerRadius * kTowerRadius, kGroundRadius * kGroundRadius));
@@ -220,25 +258,51 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
         point.normal = Eigen::Vector3d::UnitZ();
       }
       points.push_back(point);
+      pattern_points.push_back(pattern_point);
     }
   }
   // Each walkway is lined on its left by a wall from tower to tower, tangent
   // to both, facing the walkway.
-  for (const auto& link : links) {
-    const Eigen::Vector2d from = towers[link.first];
-    const Eigen::Vector2d to = towers[link.second];
+  const int num_poster_points = posters ? options.num_points_per_link / 4 : 0;
+  std::vector<Eigen::Vector2d> poster_layout;
+  for (int i = 0; i < num_poster_points; ++i) {
+    poster_layout.emplace_back(
+        random.Uniform(-kPosterWidth / 2, kPosterWidth / 2),
+        random.Uniform(kPosterBottom, kPosterBottom + kPosterHeight));
+  }
+  for (size_t l = 0; l < links.size(); ++l) {
+    const Eigen::Vector2d from = towers[links[l].first];
+    const Eigen::Vector2d to = towers[links[l].second];
     const Eigen::Vector2d along = (to - from).normalized();
     const Eigen::Vector2d left(-along.y(), along.x());
     const double length = (to - from).norm();
+    const Eigen::Vector3d normal(-left.x(), -left.y(), 0);
     for (int i = 0; i < options.num_points_per_link; ++i) {
       const Eigen::Vector2d xy =
           from + random.Uniform(0, length) * along + kTowerRadius * left;
       ScenePoint point;
       point.xyz =
           Eigen::Vector3d(xy.x(), xy.y(), random.Uniform(0, kWallHeight));
-      point.normal = Eigen::Vector3d(-left.x(), -left.y(), 0);
+      point.normal = normal;
       points.push_back(point);
-      tower_point_index.push_back(-1);
+      pattern_points.emplace_back();
+    }
+    Eigen::Matrix3d poster_axes;
+    poster_axes.col(0) = Eigen::Vector3d(along.x(), along.y(), 0);
+    poster_axes.col(1) = Eigen::Vector3d(left.x(), left.y(), 0);
+    poster_axes.col(2) = Eigen::Vector3d::UnitZ();
+    const Eigen::Vector2d middle = from + 0.5 * length * along;
+    const Rigid3d world_from_poster(Eigen::Quaterniond(poster_axes),
+                                    Eigen::Vector3d(middle.x(), middle.y(), 0));
+    world_from_copy[kPosterPattern].push_back(world_from_poster);
+    for (int i = 0; i < num_poster_points; ++i) {
+      ScenePoint point;
+      point.xyz = world_from_poster * Eigen::Vector3d(poster_layout[i].x(),
+                                                      kTowerRadius,
+                                                      poster_layout[i].y());
+      point.normal = normal;
+      points.push_back(point);
+      pattern_points.push_back({kPosterPattern, i, static_cast<int>(l)});
     }
   }
 
@@ -504,17 +568,23 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
   }
 
   //////////////////////////////////////////////////////////////////////////////
-  // Matches and two-view geometries
+  // Raw matches
   //////////////////////////////////////////////////////////////////////////////
 
   const size_t num_images = image_ids.size();
-  auto two_view_geometry_of = [&](const size_t idx1, const size_t idx2) {
+
+  // The two-view geometry of images idx1 and idx2 if the second one's view
+  // were taken `second_from_first` away (identity: the true one).
+  auto exact_two_view_geometry = [&](const size_t idx1,
+                                     const size_t idx2,
+                                     const Rigid3d& second_from_first) {
     const Image& image1 = reconstruction.Image(image_ids[idx1]);
     const Image& image2 = reconstruction.Image(image_ids[idx2]);
     TwoViewGeometry two_view_geometry;
     two_view_geometry.config = TwoViewGeometry::CALIBRATED;
-    two_view_geometry.cam2_from_cam1 =
-        image2.CamFromWorld() * Inverse(image1.CamFromWorld());
+    two_view_geometry.cam2_from_cam1 = image2.CamFromWorld() *
+                                       second_from_first *
+                                       Inverse(image1.CamFromWorld());
     two_view_geometry.E =
         EssentialMatrixFromPose(*two_view_geometry.cam2_from_cam1);
     two_view_geometry.F = FundamentalFromEssentialMatrix(
@@ -570,7 +640,8 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
                                   FeatureMatches* matches) {
     const Image& image1 = reconstruction.Image(image_ids[idx1]);
     const Image& image2 = reconstruction.Image(image_ids[idx2]);
-    const Eigen::Matrix3d F = *two_view_geometry_of(idx1, idx2).F;
+    const Eigen::Matrix3d F =
+        *exact_two_view_geometry(idx1, idx2, Rigid3d()).F;
     auto [free1, free2] = shuffled_free_keypoints(idx1, idx2, *matches);
     int num_added = 0;
     for (const point2D_t point2D_idx1 : free1) {
@@ -591,6 +662,35 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
         ++num_added;
         break;
       }
+    }
+  };
+
+  // A matched pair's matches with the matcher's wrong ones added, written;
+  // with exact two-view geometries also as verified, at the pose of the
+  // second view taken `second_from_first` away.
+  auto write_matches = [&](const size_t idx1,
+                           const size_t idx2,
+                           FeatureMatches matches,
+                           const Rigid3d& second_from_first) {
+    const double wrong_per_match =
+        options.wrong_match_fraction / (1.0 - options.wrong_match_fraction);
+    const int num_wrong =
+        static_cast<int>(std::round(wrong_per_match * matches.size()));
+    const int num_epipolar = static_cast<int>(
+        std::round(options.epipolar_wrong_match_share * num_wrong));
+    add_epipolar_matches(idx1, idx2, num_epipolar, &matches);
+    add_random_matches(idx1, idx2, num_wrong - num_epipolar, &matches);
+    random.Shuffle(&matches);
+    database->WriteMatches(image_ids[idx1], image_ids[idx2], matches);
+    scene->num_raw_matches += matches.size();
+    if (options.exact_two_view_geometries) {
+      TwoViewGeometry two_view_geometry =
+          exact_two_view_geometry(idx1, idx2, second_from_first);
+      two_view_geometry.inlier_matches = std::move(matches);
+      ++scene->num_verified_pairs;
+      scene->num_inlier_matches += two_view_geometry.inlier_matches.size();
+      database->WriteTwoViewGeometry(
+          image_ids[idx1], image_ids[idx2], two_view_geometry);
     }
   };
 
@@ -630,30 +730,17 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
       FeatureMatches matches = std::move(matches_with[idx2]);
       matches_with[idx2].clear();
       sharing_pairs.insert(idx1 * num_images + idx2);
-      if (static_cast<int>(matches.size()) < options.min_num_inliers) {
+      if (static_cast<int>(matches.size()) < options.min_num_shared_points) {
         continue;
       }
-      ++scene->num_verified_pairs;
-      if (database == nullptr) {
-        continue;
+      ++scene->num_matched_pairs;
+      if (database != nullptr) {
+        write_matches(idx1, idx2, std::move(matches), Rigid3d());
       }
-      const int num_outliers = static_cast<int>(
-          std::round(options.outlier_match_ratio * matches.size()));
-      if (options.epipolar_outliers) {
-        add_epipolar_matches(idx1, idx2, num_outliers, &matches);
-      } else {
-        add_random_matches(idx1, idx2, num_outliers, &matches);
-      }
-      random.Shuffle(&matches);
-      TwoViewGeometry two_view_geometry = two_view_geometry_of(idx1, idx2);
-      two_view_geometry.inlier_matches = matches;
-      database->WriteMatches(image_ids[idx1], image_ids[idx2], matches);
-      database->WriteTwoViewGeometry(
-          image_ids[idx1], image_ids[idx2], two_view_geometry);
     }
   }
 
-  // Falsely verified pairs between images that share no point.
+  // Pairs of images that share no point, matched by chance.
   const int kMaxAttemptsPerPair = 1000;
   for (int i = 0; i < options.num_false_pairs && num_images >= 2; ++i) {
     for (int attempt = 0; attempt < kMaxAttemptsPerPair; ++attempt) {
@@ -668,98 +755,144 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
       if (!sharing_pairs.insert(idx1 * num_images + idx2).second) {
         continue;  // Shares points or is already a false pair.
       }
+      ++scene->num_matched_pairs;
       ++scene->num_false_pairs;
       if (database != nullptr) {
         FeatureMatches matches;
         add_random_matches(
             idx1, idx2, options.false_pair_num_matches, &matches);
-        TwoViewGeometry two_view_geometry = two_view_geometry_of(idx1, idx2);
-        two_view_geometry.inlier_matches = matches;
         database->WriteMatches(image_ids[idx1], image_ids[idx2], matches);
-        database->WriteTwoViewGeometry(
-            image_ids[idx1], image_ids[idx2], two_view_geometry);
+        scene->num_raw_matches += matches.size();
+        if (options.exact_two_view_geometries) {
+          TwoViewGeometry two_view_geometry =
+              exact_two_view_geometry(idx1, idx2, Rigid3d());
+          two_view_geometry.inlier_matches = std::move(matches);
+          ++scene->num_verified_pairs;
+          scene->num_inlier_matches += two_view_geometry.inlier_matches.size();
+          database->WriteTwoViewGeometry(
+              image_ids[idx1], image_ids[idx2], two_view_geometry);
+        }
       }
       break;
     }
   }
 
-  // Falsely verified pairs from repeated structure: images of two different
-  // landmarks matched on the tower points they both see in the shared
-  // layout, with the relative pose that stacks the second tower on the
-  // first.
-  if (repeated_towers) {
-    // Per image: tower layout index -> keypoint.
-    std::vector<std::unordered_map<int, point2D_t>> tower_keypoints(num_images);
+  // Pairs of images that share no point, matched on repeated structure or
+  // texture: on the points of one copy of a pattern that the first image
+  // sees and of another copy that the second sees, at the same places of
+  // the pattern's layout.
+  const int num_pattern_pairs[kNumPatterns] = {
+      options.num_repeated_structure_pairs, options.num_repeated_texture_pairs};
+  int* num_written_pattern_pairs[kNumPatterns] = {
+      &scene->num_repeated_structure_pairs,
+      &scene->num_repeated_texture_pairs};
+  for (int pattern = 0; pattern < kNumPatterns; ++pattern) {
+    if (num_pattern_pairs[pattern] == 0) {
+      continue;
+    }
+    // Per image: layout index -> (copy, keypoint); per layout index: the
+    // images that see it.
+    std::vector<std::unordered_map<int, std::pair<int, point2D_t>>>
+        pattern_keypoints(num_images);
+    std::unordered_map<int, std::vector<size_t>> seen_by;
     for (size_t idx = 0; idx < num_images; ++idx) {
       for (const auto& observation : observations[idx]) {
-        const int layout_index = tower_point_index[observation.first - 1];
-        if (layout_index >= 0) {
-          tower_keypoints[idx].emplace(layout_index, observation.second);
+        const PatternPoint& point = pattern_points[observation.first - 1];
+        if (point.pattern == pattern &&
+            pattern_keypoints[idx]
+                .emplace(point.index,
+                         std::make_pair(point.copy, observation.second))
+                .second) {
+          seen_by[point.index].push_back(idx);
         }
       }
     }
-    std::vector<std::pair<size_t, size_t>> candidates;
-    for (size_t idx1 = 0; idx1 < num_images; ++idx1) {
-      const int cluster1 = scene->image_cluster.at(image_ids[idx1]);
-      for (size_t idx2 = idx1 + 1; idx2 < num_images; ++idx2) {
-        const int cluster2 = scene->image_cluster.at(image_ids[idx2]);
-        if (cluster1 < 0 || cluster2 < 0 || cluster1 == cluster2 ||
-            sharing_pairs.count(idx1 * num_images + idx2) > 0) {
-          continue;
-        }
-        int num_common = 0;
-        for (const auto& layout_and_keypoint : tower_keypoints[idx1]) {
-          num_common += tower_keypoints[idx2].count(layout_and_keypoint.first);
-        }
-        if (num_common >= options.min_num_inliers) {
-          candidates.emplace_back(idx1, idx2);
+    // Per pair and two copies: the number of layout places in common.
+    const uint64_t num_copies = world_from_copy[pattern].size();
+    std::unordered_map<uint64_t, int> num_common;
+    for (const auto& [index, image_idxs] : seen_by) {
+      for (size_t i = 0; i < image_idxs.size(); ++i) {
+        const int copy1 = pattern_keypoints[image_idxs[i]].at(index).first;
+        for (size_t j = i + 1; j < image_idxs.size(); ++j) {
+          const int copy2 = pattern_keypoints[image_idxs[j]].at(index).first;
+          if (copy1 != copy2) {
+            ++num_common[((image_idxs[i] * num_images + image_idxs[j]) *
+                              num_copies +
+                          copy1) *
+                             num_copies +
+                         copy2];
+          }
         }
       }
+    }
+    // Candidates (pair, copy1, copy2): the copies the pair has most places
+    // in common on, at least min_num_shared_points.
+    std::map<uint64_t, std::pair<int, uint64_t>> best_copies;
+    for (const auto& [key, count] : num_common) {
+      const uint64_t pair = key / (num_copies * num_copies);
+      if (count < options.min_num_shared_points ||
+          sharing_pairs.count(pair) > 0) {
+        continue;
+      }
+      auto& best = best_copies[pair];
+      if (count > best.first ||
+          (count == best.first && key % (num_copies * num_copies) <
+                                      best.second)) {
+        best = {count, key % (num_copies * num_copies)};
+      }
+    }
+    std::vector<std::pair<uint64_t, uint64_t>> candidates;
+    for (const auto& [pair, best] : best_copies) {
+      candidates.emplace_back(pair, best.second);
     }
     random.Shuffle(&candidates);
-    candidates.resize(std::min<size_t>(candidates.size(),
-                                       options.num_repeated_structure_pairs));
+    candidates.resize(
+        std::min<size_t>(candidates.size(), num_pattern_pairs[pattern]));
     std::sort(candidates.begin(), candidates.end());
-    for (const auto& candidate : candidates) {
-      const size_t idx1 = candidate.first;
-      const size_t idx2 = candidate.second;
-      sharing_pairs.insert(idx1 * num_images + idx2);
-      ++scene->num_repeated_structure_pairs;
+    for (const auto& [pair, copies] : candidates) {
+      const size_t idx1 = pair / num_images;
+      const size_t idx2 = pair % num_images;
+      const int copy1 = static_cast<int>(copies / num_copies);
+      const int copy2 = static_cast<int>(copies % num_copies);
+      sharing_pairs.insert(pair);
+      ++scene->num_matched_pairs;
+      ++*num_written_pattern_pairs[pattern];
       if (database == nullptr) {
         continue;
       }
       FeatureMatches matches;
-      for (const auto& layout_and_keypoint : tower_keypoints[idx1]) {
-        const auto it = tower_keypoints[idx2].find(layout_and_keypoint.first);
-        if (it != tower_keypoints[idx2].end()) {
-          matches.emplace_back(layout_and_keypoint.second, it->second);
+      for (const auto& [index, copy_and_keypoint1] :
+           pattern_keypoints[idx1]) {
+        const auto it = pattern_keypoints[idx2].find(index);
+        if (copy_and_keypoint1.first == copy1 &&
+            it != pattern_keypoints[idx2].end() &&
+            it->second.first == copy2) {
+          matches.emplace_back(copy_and_keypoint1.second, it->second.second);
         }
       }
-      random.Shuffle(&matches);
-      // The second image as if its tower stood where the first one's does.
-      const int cluster1 = scene->image_cluster.at(image_ids[idx1]);
-      const int cluster2 = scene->image_cluster.at(image_ids[idx2]);
-      Rigid3d second_tower_from_first;
-      second_tower_from_first.translation().head<2>() =
-          towers[cluster2] - towers[cluster1];
-      const Image& image1 = reconstruction.Image(image_ids[idx1]);
-      const Image& image2 = reconstruction.Image(image_ids[idx2]);
-      TwoViewGeometry two_view_geometry;
-      two_view_geometry.config = TwoViewGeometry::CALIBRATED;
-      two_view_geometry.cam2_from_cam1 = image2.CamFromWorld() *
-                                         second_tower_from_first *
-                                         Inverse(image1.CamFromWorld());
-      two_view_geometry.E =
-          EssentialMatrixFromPose(*two_view_geometry.cam2_from_cam1);
-      two_view_geometry.F = FundamentalFromEssentialMatrix(
-          reconstruction.Camera(image2.CameraId()).CalibrationMatrix(),
-          *two_view_geometry.E,
-          reconstruction.Camera(image1.CameraId()).CalibrationMatrix());
-      two_view_geometry.inlier_matches = matches;
-      database->WriteMatches(image_ids[idx1], image_ids[idx2], matches);
-      database->WriteTwoViewGeometry(
-          image_ids[idx1], image_ids[idx2], two_view_geometry);
+      std::sort(matches.begin(),
+                matches.end(),
+                [](const FeatureMatch& a, const FeatureMatch& b) {
+                  return a.point2D_idx1 < b.point2D_idx1;
+                });
+      write_matches(idx1,
+                    idx2,
+                    std::move(matches),
+                    world_from_copy[pattern][copy2] *
+                        Inverse(world_from_copy[pattern][copy1]));
     }
+  }
+
+  //////////////////////////////////////////////////////////////////////////////
+  // Two-view geometries
+  //////////////////////////////////////////////////////////////////////////////
+
+  transaction.reset();
+  if (database != nullptr && !options.exact_two_view_geometries) {
+    const MatchedPairVerificationStats stats = VerifyMatchedPairs(
+        TwoViewGeometryOptions(), options.seed, options.num_threads, database);
+    scene->num_verified_pairs = stats.num_verified_pairs;
+    scene->num_inlier_matches = stats.num_inlier_matches;
   }
 
   reconstruction.UpdatePoint3DErrors();

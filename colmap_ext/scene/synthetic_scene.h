@@ -18,19 +18,25 @@
 // and ground points have normals; walkway features do not) and is not hidden
 // by a tower.
 //
-// The database holds what COLMAP's feature extractor and matcher would store:
-// one camera (or one per image), each the only sensor of a rig of its own,
-// images, each in a frame of its own, or, with a multi-camera rig, what
-// `colmap rig_configurator` makes of them: one rig of one camera per rig
-// sensor with its true sensor_from_rig, and per camera position one frame
-// (one snapshot of the rig) of one image per camera; keypoints (observations
-// with
-// Gaussian noise, plus distractor keypoints without a 3D point, shuffled),
-// raw matches and two-view geometries whose inlier matches are the true
-// correspondences of every pair sharing at least `min_num_inliers` points,
-// with an optional fraction of wrong matches mixed in, and optionally some
-// falsely verified pairs between unrelated images. Images are written in a
-// random order. The same options and seed give the same bytes.
+// The database holds what COLMAP's feature extractor, matcher and
+// geometric verification write: one camera (or one per image), each the only
+// sensor of a rig of its own, images, each in a frame of its own, or, with a
+// multi-camera rig, what `colmap rig_configurator` makes of them: one rig of
+// one camera per rig sensor with its true sensor_from_rig, and per camera
+// position one frame (one snapshot of the rig) of one image per camera;
+// keypoints (observations with Gaussian noise, plus distractor keypoints
+// without a 3D point, shuffled); raw matches, as a matcher leaves them: the
+// true correspondences of every pair sharing at least
+// `min_num_shared_points` points plus a share of wrong matches (random, or
+// near the pair's epipolar line as repeated texture makes them), pairs of
+// unrelated images matched by chance, and pairs of unrelated images matched
+// on repeated structure (identical towers, the same poster on two walls),
+// whose matches one rigid motion or one homography explains. The two-view
+// geometries are then estimated from the raw matches by COLMAP's own
+// geometric verification with its default options (VerifyMatchedPairs), as
+// `colmap geometric_verifier` does: they hold the inliers RANSAC keeps and no
+// relative pose, never the truth. Images are written in a random order. The
+// same options and seed give the same bytes.
 
 #pragma once
 
@@ -105,33 +111,49 @@ struct SyntheticSceneOptions {
   // Points further away than this are not observed (metres).
   double max_viewing_distance = 40.0;
 
-  // A pair is written as verified if it shares at least this many points.
-  int min_num_inliers = 15;
+  // A pair of images is matched if it shares at least this many points.
+  int min_num_shared_points = 15;
 
-  // Fraction of wrong matches added to the inlier matches of every
-  // verified pair (relative to its true matches).
-  double outlier_match_ratio = 0.0;
+  // Fraction of every matched pair's raw matches that are wrong (a
+  // matcher's ratio test lets through about a quarter on real photographs).
+  double wrong_match_fraction = 0.25;
 
-  // Whether those wrong matches satisfy the pair's epipolar geometry, each
-  // within 4 pixels of its epipolar line (COLMAP's default verification
-  // threshold), as the wrong matches a real matcher's geometric
-  // verification keeps; false: random keypoints, most of which a
-  // verification would have rejected.
-  bool epipolar_outliers = false;
+  // Share of those wrong matches that lie within 4 pixels of their epipolar
+  // line (COLMAP's default verification threshold), as repeated texture
+  // along the line makes them: verification keeps them among the inliers.
+  // The others pair random keypoints, which verification rejects.
+  double epipolar_wrong_match_share = 0.25;
 
-  // Number of falsely verified pairs between images that share no points,
-  // each with `false_pair_num_matches` random matches.
+  // Number of pairs of images that share no point matched by chance, each
+  // on `false_pair_num_matches` random keypoints (verification rejects
+  // them, as a real matcher's).
   int num_false_pairs = 0;
   int false_pair_num_matches = 30;
 
-  // Number of falsely verified pairs from repeated structure: all towers
-  // are then copies of the first (the same points around their own centre)
-  // and such a pair, between images of two different landmarks that see at
-  // least `min_num_inliers` corresponding tower points, matches those
-  // points' keypoints. Unlike random false pairs, its matches agree with
-  // one rigid transform (the one that stacks one tower on the other), as
-  // the matches between two identical facades do.
+  // Number of pairs falsely matched on repeated structure: all towers are
+  // then copies of the first (the same points around their own centre) and
+  // such a pair, between images of two different landmarks that see at
+  // least `min_num_shared_points` corresponding tower points, matches those
+  // points' keypoints. Their matches agree with one rigid motion (the one
+  // that stacks one tower on the other), as those between two identical
+  // buildings do, and pass verification.
   int num_repeated_structure_pairs = 0;
+
+  // Number of pairs falsely matched on repeated planar texture: every wall
+  // then carries the same poster at its middle and such a pair, between
+  // walkway images of two different walls that see at least
+  // `min_num_shared_points` corresponding poster points, matches those
+  // points' keypoints. One homography explains their matches, as those
+  // between two identical facades or window patterns.
+  int num_repeated_texture_pairs = 0;
+
+  // For unit tests that need exact geometry instead of a verification: every
+  // matched pair is written as verified, all its raw matches its inliers,
+  // with its true relative pose (the stacked copy's for repeated structure).
+  bool exact_two_view_geometries = false;
+
+  // Threads of the verification (-1: all).
+  int num_threads = -1;
 
   // Seed of the random number generator.
   unsigned int seed = 0;
@@ -149,9 +171,17 @@ struct SyntheticScene {
   // or -1 for walkway images.
   std::unordered_map<image_t, int> image_cluster;
 
-  int num_verified_pairs = 0;
+  // Pairs with raw matches: sharing points, matched by chance, matched on
+  // repeated structure or texture.
+  int num_matched_pairs = 0;
   int num_false_pairs = 0;
   int num_repeated_structure_pairs = 0;
+  int num_repeated_texture_pairs = 0;
+  // The verification's outcome: pairs with a two-view geometry of at least
+  // its minimum number of inliers, and the raw and inlier matches of all.
+  int num_verified_pairs = 0;
+  size_t num_raw_matches = 0;
+  size_t num_inlier_matches = 0;
 };
 
 // Generates the scene and, if `database` is given, writes it to the

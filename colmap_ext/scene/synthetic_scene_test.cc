@@ -2,11 +2,14 @@
 
 #include "colmap_ext/util/testing.h"
 
+#include "colmap/geometry/essential_matrix.h"
+#include "colmap/geometry/pose.h"
 #include "colmap/math/math.h"
 
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <map>
 #include <sstream>
@@ -37,8 +40,8 @@ SyntheticSceneOptions SmallScene() {
 TEST(SynthesizeCommunityScene, SameSeedSameBytes) {
   const std::filesystem::path test_dir = CreateTestFolder();
   SyntheticSceneOptions options = SmallScene();
-  options.outlier_match_ratio = 0.1;
   options.num_false_pairs = 5;
+  options.num_repeated_texture_pairs = 5;
   for (const std::string name : {"a.db", "b.db", "c.db"}) {
     if (name == "c.db") {
       options.seed += 1;
@@ -53,9 +56,18 @@ TEST(SynthesizeCommunityScene, SameSeedSameBytes) {
   EXPECT_NE(a, ReadBytes(test_dir / "c.db"));
 }
 
+// Whether a match joins two observations of the same point.
+bool IsTrueMatch(const Reconstruction& truth,
+                 const image_t image_id1,
+                 const image_t image_id2,
+                 const FeatureMatch& match) {
+  const Point2D& point1 = truth.Image(image_id1).Point2D(match.point2D_idx1);
+  const Point2D& point2 = truth.Image(image_id2).Point2D(match.point2D_idx2);
+  return point1.HasPoint3D() && point1.point3D_id == point2.point3D_id;
+}
+
 TEST(SynthesizeCommunityScene, DatabaseMatchesGroundTruth) {
   SyntheticSceneOptions options = SmallScene();
-  options.outlier_match_ratio = 0.1;
   options.num_false_pairs = 6;
   const std::shared_ptr<Database> database = Database::Open(
       std::filesystem::path(CreateTestFolder()) / "database.db");
@@ -108,46 +120,119 @@ TEST(SynthesizeCommunityScene, DatabaseMatchesGroundTruth) {
   EXPECT_LT(reprojected.ComputeMeanReprojectionError(), 1.0);
   EXPECT_GT(reprojected.ComputeMeanReprojectionError(), 0.3);
 
-  // Verified pairs: true matches plus ~10% wrong ones; false pairs share
-  // no point at all.
+  // Raw matches: every pair sharing points, a quarter of its matches
+  // wrong; the chance pairs share no point at all.
+  const std::vector<std::pair<image_pair_t, FeatureMatches>> all_matches =
+      database->ReadAllMatches();
+  ASSERT_EQ(static_cast<int>(all_matches.size()), scene.num_matched_pairs);
+  EXPECT_EQ(scene.num_false_pairs, 6);
+  std::map<image_pair_t, int> num_true_raw;
+  size_t num_raw = 0;
+  size_t num_wrong_raw = 0;
+  int num_chance = 0;
+  for (const auto& [pair_id, matches] : all_matches) {
+    const auto [image_id1, image_id2] = PairIdToImagePair(pair_id);
+    int num_true = 0;
+    for (const FeatureMatch& match : matches) {
+      num_true += IsTrueMatch(truth, image_id1, image_id2, match);
+    }
+    num_true_raw[pair_id] = num_true;
+    if (num_true == 0) {
+      ++num_chance;
+      EXPECT_EQ(matches.size(), options.false_pair_num_matches);
+      continue;
+    }
+    EXPECT_GE(num_true, options.min_num_shared_points);
+    num_raw += matches.size();
+    num_wrong_raw += matches.size() - num_true;
+  }
+  EXPECT_EQ(num_chance, 6);
+  EXPECT_NEAR(static_cast<double>(num_wrong_raw) / num_raw,
+              options.wrong_match_fraction,
+              0.01);
+
+  // Two-view geometries, as COLMAP's verification writes them: one for
+  // every matched pair, no relative pose, the true matches kept and the
+  // random wrong ones rejected; the chance pairs not verified.
+  const std::vector<std::pair<image_pair_t, TwoViewGeometry>>
+      two_view_geometries = database->ReadTwoViewGeometries();
+  ASSERT_EQ(two_view_geometries.size(), all_matches.size());
+  size_t num_inliers = 0;
+  size_t num_true_inliers = 0;
+  size_t num_true_in_verified = 0;
+  int num_verified = 0;
+  for (const auto& [pair_id, two_view_geometry] : two_view_geometries) {
+    EXPECT_FALSE(two_view_geometry.cam2_from_cam1.has_value());
+    if (two_view_geometry.inlier_matches.empty()) {
+      EXPECT_EQ(two_view_geometry.config, TwoViewGeometry::UNDEFINED);
+      continue;
+    }
+    EXPECT_GT(num_true_raw.at(pair_id), 0);
+    ++num_verified;
+    const auto [image_id1, image_id2] = PairIdToImagePair(pair_id);
+    for (const FeatureMatch& match : two_view_geometry.inlier_matches) {
+      num_true_inliers += IsTrueMatch(truth, image_id1, image_id2, match);
+    }
+    num_inliers += two_view_geometry.inlier_matches.size();
+    num_true_in_verified += num_true_raw.at(pair_id);
+  }
+  EXPECT_EQ(num_verified, scene.num_verified_pairs);
+  EXPECT_EQ(num_inliers, scene.num_inlier_matches);
+  EXPECT_GT(num_verified, 0.9 * (scene.num_matched_pairs - num_chance));
+  EXPECT_GT(num_true_inliers, 0.95 * num_true_in_verified);
+  // Of the wrong matches, those near their epipolar line survive.
+  const double num_wrong_inliers =
+      static_cast<double>(num_inliers - num_true_inliers);
+  EXPECT_LT(num_wrong_inliers, 0.5 * num_wrong_raw);
+  EXPECT_GT(num_wrong_inliers, 0.05 * num_wrong_raw);
+  // The verification rejected at least a tenth of the raw matches.
+  EXPECT_LT(num_inliers, 0.9 * scene.num_raw_matches);
+}
+
+TEST(SynthesizeCommunityScene, ExactGeometriesForUnitTests) {
+  SyntheticSceneOptions options = SmallScene();
+  options.exact_two_view_geometries = true;
+  options.wrong_match_fraction = 0;
+  const std::shared_ptr<Database> database = Database::Open(
+      std::filesystem::path(CreateTestFolder()) / "database.db");
+  SyntheticScene scene;
+  SynthesizeCommunityScene(options, &scene, database.get());
+  const Reconstruction& truth = scene.ground_truth;
   const std::vector<std::pair<image_pair_t, TwoViewGeometry>>
       two_view_geometries = database->ReadTwoViewGeometries();
   ASSERT_EQ(static_cast<int>(two_view_geometries.size()),
-            scene.num_verified_pairs + scene.num_false_pairs);
-  EXPECT_EQ(scene.num_false_pairs, 6);
-  int num_false = 0;
+            scene.num_matched_pairs);
+  EXPECT_EQ(scene.num_verified_pairs, scene.num_matched_pairs);
   for (const auto& [pair_id, two_view_geometry] : two_view_geometries) {
     const auto [image_id1, image_id2] = PairIdToImagePair(pair_id);
-    const Image& image1 = truth.Image(image_id1);
-    const Image& image2 = truth.Image(image_id2);
-    int num_true = 0;
     for (const FeatureMatch& match : two_view_geometry.inlier_matches) {
-      const Point2D& point1 = image1.Point2D(match.point2D_idx1);
-      const Point2D& point2 = image2.Point2D(match.point2D_idx2);
-      num_true += point1.HasPoint3D() && point1.point3D_id == point2.point3D_id;
+      EXPECT_TRUE(IsTrueMatch(truth, image_id1, image_id2, match));
     }
-    const int num_matches =
-        static_cast<int>(two_view_geometry.inlier_matches.size());
-    if (num_true == 0) {
-      ++num_false;
-      EXPECT_EQ(num_matches, options.false_pair_num_matches);
-    } else {
-      EXPECT_GE(num_true, options.min_num_inliers);
-      EXPECT_NEAR(num_matches, 1.1 * num_true, 1.0);
-    }
+    ASSERT_TRUE(two_view_geometry.cam2_from_cam1.has_value());
+    const Rigid3d true_cam2_from_cam1 =
+        truth.Image(image_id2).CamFromWorld() *
+        Inverse(truth.Image(image_id1).CamFromWorld());
+    EXPECT_LT((two_view_geometry.cam2_from_cam1->ToMatrix() -
+               true_cam2_from_cam1.ToMatrix())
+                  .norm(),
+              1e-9);
   }
-  EXPECT_EQ(num_false, 6);
 }
 
-// The wrong matches of a verified pair: random keypoints, or keypoints
-// that satisfy the pair's epipolar geometry, as a real matcher's survivors
-// of verification. Returns the largest and the median epipolar distance
-// (pixels, in the second image) of the wrong matches of every pair.
-std::pair<double, double> WrongMatchEpipolarDistances(
-    const bool epipolar_outliers) {
+// The wrong raw matches of the pairs sharing points: random keypoints, or
+// keypoints that satisfy the pair's epipolar geometry, as repeated texture
+// along the line makes them. Returns the largest and the median epipolar
+// distance (pixels, in the second image) of the wrong matches, and the
+// share of them that the verification kept.
+struct WrongMatches {
+  double max_distance = 0;
+  double median_distance = 0;
+  double kept = 0;
+};
+
+WrongMatches WrongMatchesOf(const double epipolar_wrong_match_share) {
   SyntheticSceneOptions options = SmallScene();
-  options.outlier_match_ratio = 0.1;
-  options.epipolar_outliers = epipolar_outliers;
+  options.epipolar_wrong_match_share = epipolar_wrong_match_share;
   const std::shared_ptr<Database> database = Database::Open(
       std::filesystem::path(CreateTestFolder()) / "database.db");
   SyntheticScene scene;
@@ -155,34 +240,49 @@ std::pair<double, double> WrongMatchEpipolarDistances(
   const Reconstruction& truth = scene.ground_truth;
   std::vector<double> distances;
   int num_true = 0;
-  for (const auto& [pair_id, two_view_geometry] :
-       database->ReadTwoViewGeometries()) {
+  for (const auto& [pair_id, matches] : database->ReadAllMatches()) {
     const auto [image_id1, image_id2] = PairIdToImagePair(pair_id);
     const Image& image1 = truth.Image(image_id1);
     const Image& image2 = truth.Image(image_id2);
-    const Eigen::Matrix3d F = *two_view_geometry.F;
-    for (const FeatureMatch& match : two_view_geometry.inlier_matches) {
-      const Point2D& point1 = image1.Point2D(match.point2D_idx1);
-      const Point2D& point2 = image2.Point2D(match.point2D_idx2);
-      if (point1.HasPoint3D() && point1.point3D_id == point2.point3D_id) {
+    const Rigid3d cam2_from_cam1 =
+        image2.CamFromWorld() * Inverse(image1.CamFromWorld());
+    const Eigen::Matrix3d F = FundamentalFromEssentialMatrix(
+        truth.Camera(image2.CameraId()).CalibrationMatrix(),
+        EssentialMatrixFromPose(cam2_from_cam1),
+        truth.Camera(image1.CameraId()).CalibrationMatrix());
+    for (const FeatureMatch& match : matches) {
+      if (IsTrueMatch(truth, image_id1, image_id2, match)) {
         ++num_true;
         continue;
       }
-      const Eigen::Vector3d line = F * point1.xy.homogeneous();
-      distances.push_back(std::abs(line.dot(point2.xy.homogeneous())) /
-                          line.head<2>().norm());
+      const Eigen::Vector3d line = F * image1.Point2D(match.point2D_idx1).xy.homogeneous();
+      distances.push_back(
+          std::abs(line.dot(image2.Point2D(match.point2D_idx2).xy.homogeneous())) /
+          line.head<2>().norm());
     }
   }
-  EXPECT_NEAR(distances.size(), 0.1 * num_true, 0.02 * num_true);
+  EXPECT_NEAR(distances.size(), num_true / 3.0, 0.02 * num_true);
+  size_t num_wrong_inliers = 0;
+  for (const auto& [pair_id, two_view_geometry] :
+       database->ReadTwoViewGeometries()) {
+    const auto [image_id1, image_id2] = PairIdToImagePair(pair_id);
+    for (const FeatureMatch& match : two_view_geometry.inlier_matches) {
+      num_wrong_inliers += !IsTrueMatch(truth, image_id1, image_id2, match);
+    }
+  }
   std::sort(distances.begin(), distances.end());
-  return {distances.back(), distances[distances.size() / 2]};
+  return {distances.back(),
+          distances[distances.size() / 2],
+          static_cast<double>(num_wrong_inliers) / distances.size()};
 }
 
-TEST(SynthesizeCommunityScene, EpipolarOutliersSatisfyTheTwoViewGeometry) {
-  const auto [epipolar_max, epipolar_median] = WrongMatchEpipolarDistances(true);
-  EXPECT_LE(epipolar_max, 4.0 + 1e-6);
-  const auto [random_max, random_median] = WrongMatchEpipolarDistances(false);
-  EXPECT_GT(random_median, 20.0);
+TEST(SynthesizeCommunityScene, EpipolarWrongMatchesSurviveTheVerification) {
+  const WrongMatches epipolar = WrongMatchesOf(1.0);
+  EXPECT_LE(epipolar.max_distance, 4.0 + 1e-3);
+  EXPECT_GT(epipolar.kept, 0.5);
+  const WrongMatches random = WrongMatchesOf(0.0);
+  EXPECT_GT(random.median_distance, 20.0);
+  EXPECT_LT(random.kept, 0.05);
 }
 
 TEST(SynthesizeCommunityScene, ClustersAreDenseWalkwaysSparse) {
@@ -252,39 +352,34 @@ TEST(SynthesizeCommunityScene, FocalLengthsOffTheNominalValue) {
   EXPECT_LT(reprojected.ComputeMeanReprojectionError(), 1.0);
 }
 
-TEST(SynthesizeCommunityScene, RepeatedStructurePairsAgreeWithAStackedTower) {
-  SyntheticSceneOptions options = SmallScene();
-  options.num_clusters = 2;
-  options.num_images_per_link = 0;
-  options.num_repeated_structure_pairs = 8;
+// The pairs matched on repeated structure or texture of a scene: the pairs
+// between images of different landmarks (towers) or of different walls
+// (posters) that share no point. For each, checks that its matches join
+// points at the same place of two copies of the pattern (`are_copies`):
+// the fraction of its raw matches that do, at least
+// that of true matches, and the verification's outcome.
+struct RepeatedPairs {
+  int num_pairs = 0;
+  int num_verified = 0;
+  int num_planar = 0;
+};
+
+RepeatedPairs CheckRepeatedPairs(
+    const SyntheticSceneOptions& options,
+    const std::function<bool(const Eigen::Vector3d&, const Eigen::Vector3d&)>&
+        are_copies) {
   const std::shared_ptr<Database> database = Database::Open(
       std::filesystem::path(CreateTestFolder()) / "database.db");
   SyntheticScene scene;
   SynthesizeCommunityScene(options, &scene, database.get());
   const Reconstruction& truth = scene.ground_truth;
-  EXPECT_EQ(scene.num_repeated_structure_pairs, 8);
-
-  int num_cross = 0;
-  for (const auto& [pair_id, two_view_geometry] :
-       database->ReadTwoViewGeometries()) {
+  RepeatedPairs repeated;
+  for (const auto& [pair_id, matches] : database->ReadAllMatches()) {
     const auto [image_id1, image_id2] = PairIdToImagePair(pair_id);
-    const int cluster1 = scene.image_cluster.at(image_id1);
-    const int cluster2 = scene.image_cluster.at(image_id2);
-    if (cluster1 == cluster2) {
-      continue;
-    }
-    ++num_cross;
-    // Every match joins a point of one tower with the same point of the
-    // other: shifted by the towers' offset, the two 3D points coincide.
     const Image& image1 = truth.Image(image_id1);
     const Image& image2 = truth.Image(image_id2);
-    const auto& matches = two_view_geometry.inlier_matches;
-    ASSERT_GE(static_cast<int>(matches.size()), options.min_num_inliers);
-    // (The ground truth keeps only points seen twice in their own cluster;
-    // matches of the others cannot be checked.)
-    ASSERT_TRUE(two_view_geometry.cam2_from_cam1.has_value());
-    const Rigid3d cam2_from_cam1 = *two_view_geometry.cam2_from_cam1;
-    int num_checked = 0;
+    int num_true = 0;
+    int num_pattern = 0;
     for (const FeatureMatch& match : matches) {
       const Point2D& point1 = image1.Point2D(match.point2D_idx1);
       const Point2D& point2 = image2.Point2D(match.point2D_idx2);
@@ -293,18 +388,93 @@ TEST(SynthesizeCommunityScene, RepeatedStructurePairsAgreeWithAStackedTower) {
       }
       const Eigen::Vector3d& xyz1 = truth.Point3D(point1.point3D_id).xyz;
       const Eigen::Vector3d& xyz2 = truth.Point3D(point2.point3D_id).xyz;
-      EXPECT_NEAR((xyz2 - xyz1).norm(), options.landmark_spacing, 1e-6);
-      EXPECT_NEAR((xyz2 - xyz1).z(), 0, 1e-6);
-      // The stored relative pose is the one of the stacked towers.
-      EXPECT_LT((cam2_from_cam1 * (image1.CamFromWorld() * xyz1) -
-                 image2.CamFromWorld() * xyz2)
-                    .norm(),
-                1e-6);
-      ++num_checked;
+      num_true += point1.point3D_id == point2.point3D_id;
+      num_pattern += are_copies(xyz1, xyz2);
     }
-    EXPECT_GE(num_checked, 5);
+    if (num_true > 0) {
+      continue;
+    }
+    const TwoViewGeometry two_view_geometry =
+        database->ReadTwoViewGeometry(image_id1, image_id2);
+    if (static_cast<int>(matches.size()) == options.false_pair_num_matches &&
+        num_pattern == 0) {
+      continue;  // Matched by chance.
+    }
+    ++repeated.num_pairs;
+    // (The ground truth keeps only the points seen twice: the matches of the
+    // others cannot be checked.)
+    EXPECT_GE(num_pattern, 0.5 * (1 - options.wrong_match_fraction) *
+                               options.min_num_shared_points);
+    EXPECT_GE(num_pattern, 0.5 * (1 - options.wrong_match_fraction) * matches.size());
+    if (!two_view_geometry.inlier_matches.empty()) {
+      ++repeated.num_verified;
+      repeated.num_planar +=
+          two_view_geometry.config == TwoViewGeometry::PLANAR ||
+          two_view_geometry.config == TwoViewGeometry::PLANAR_OR_PANORAMIC;
+    }
+    if (options.exact_two_view_geometries) {
+      // The stored relative pose stacks one copy on the other.
+      EXPECT_EQ(two_view_geometry.inlier_matches.size(), matches.size());
+      EXPECT_TRUE(two_view_geometry.cam2_from_cam1.has_value());
+      if (!two_view_geometry.cam2_from_cam1.has_value()) {
+        continue;
+      }
+      for (const FeatureMatch& match : matches) {
+        const Point2D& point1 = image1.Point2D(match.point2D_idx1);
+        const Point2D& point2 = image2.Point2D(match.point2D_idx2);
+        if (point1.HasPoint3D() && point2.HasPoint3D()) {
+          EXPECT_LT((*two_view_geometry.cam2_from_cam1 *
+                         (image1.CamFromWorld() *
+                          truth.Point3D(point1.point3D_id).xyz) -
+                     image2.CamFromWorld() *
+                         truth.Point3D(point2.point3D_id).xyz)
+                        .norm(),
+                    1e-6);
+        }
+      }
+    }
   }
-  EXPECT_EQ(num_cross, 8);
+  return repeated;
+}
+
+TEST(SynthesizeCommunityScene, RepeatedStructurePairsAgreeWithAStackedTower) {
+  SyntheticSceneOptions options = SmallScene();
+  options.num_clusters = 2;
+  options.num_images_per_link = 0;
+  options.num_repeated_structure_pairs = 8;
+  // The second tower is the first shifted by the landmarks' spacing.
+  const auto stacked = [&](const Eigen::Vector3d& xyz1,
+                           const Eigen::Vector3d& xyz2) {
+    return std::abs((xyz2 - xyz1).norm() - options.landmark_spacing) < 1e-6 &&
+           std::abs(xyz2.z() - xyz1.z()) < 1e-6;
+  };
+  const RepeatedPairs verified = CheckRepeatedPairs(options, stacked);
+  EXPECT_EQ(verified.num_pairs, 8);
+  // One rigid motion explains the matches: they pass the verification.
+  EXPECT_GE(verified.num_verified, 6);
+  options.exact_two_view_geometries = true;
+  EXPECT_EQ(CheckRepeatedPairs(options, stacked).num_pairs, 8);
+}
+
+TEST(SynthesizeCommunityScene, RepeatedTexturePairsAgreeWithOneHomography) {
+  SyntheticSceneOptions options = SmallScene();
+  options.num_images_per_link = 16;
+  options.num_repeated_texture_pairs = 6;
+  // A loop of three landmarks turned by a third of a turn about its centre
+  // is the same loop: the copies of the poster on two walls are too, at the
+  // same height and distance from the centre, a wall apart.
+  const auto turned = [](const Eigen::Vector3d& xyz1,
+                         const Eigen::Vector3d& xyz2) {
+    return std::abs(xyz1.head<2>().norm() - xyz2.head<2>().norm()) < 1e-6 &&
+           std::abs(xyz2.z() - xyz1.z()) < 1e-6 &&
+           (xyz2 - xyz1).head<2>().norm() > 1;
+  };
+  const RepeatedPairs verified = CheckRepeatedPairs(options, turned);
+  EXPECT_EQ(verified.num_pairs, 6);
+  // One plane's homography explains the matches: they pass the
+  // verification as planar.
+  EXPECT_GE(verified.num_verified, 5);
+  EXPECT_GE(verified.num_planar, verified.num_verified - 1);
 }
 
 TEST(SynthesizeCommunityScene, StereoRigAsRigConfiguratorWritesIt) {
@@ -387,6 +557,9 @@ TEST(SynthesizeCommunityScene, StereoRigAsRigConfiguratorWritesIt) {
   int num_verified_within_frames = 0;
   for (const auto& [pair_id, two_view_geometry] :
        database->ReadTwoViewGeometries()) {
+    if (two_view_geometry.inlier_matches.empty()) {
+      continue;
+    }
     const auto [image_id1, image_id2] = PairIdToImagePair(pair_id);
     num_verified_within_frames +=
         truth.Image(image_id1).FrameId() == truth.Image(image_id2).FrameId();
@@ -409,6 +582,12 @@ TEST(SyntheticSceneOptions, Check) {
   EXPECT_TRUE(options.Check());
   // A rig's cameras are one Camera each, shared by their images.
   options.single_camera = false;
+  EXPECT_FALSE(options.Check());
+  // The poster is repeated on two walls at least.
+  options = SyntheticSceneOptions();
+  options.num_repeated_texture_pairs = 1;
+  EXPECT_TRUE(options.Check());
+  options.num_clusters = 2;
   EXPECT_FALSE(options.Check());
 }
 

@@ -1,10 +1,11 @@
 // scene_generator: writes a generated scene with community structure (see
 // colmap_ext/scene/synthetic_scene.h) as a COLMAP project:
 //
-//   OUT/database.db     rigs, cameras, frames, images, keypoints, matches,
-//                       two-view geometries, as COLMAP's extractor and
-//                       matcher write them (and rig_configurator, with
-//                       --num_rig_cameras > 1)
+//   OUT/database.db     rigs, cameras, frames, images, keypoints, raw
+//                       matches and the two-view geometries COLMAP's own
+//                       geometric verification estimates from them, as
+//                       COLMAP's extractor and matcher write them (and
+//                       rig_configurator, with --num_rig_cameras > 1)
 //   OUT/images/         empty: there are no photos, mappers only warn
 //   OUT/ground_truth/   the true rigs, cameras, frames, images and points
 //                       (binary model)
@@ -59,16 +60,20 @@ int RunSceneGenerator(int argc, char** argv) {
                            &scene_options.num_distractor_keypoints);
   options.AddDefaultOption("max_viewing_distance",
                            &scene_options.max_viewing_distance);
-  options.AddDefaultOption("min_num_inliers", &scene_options.min_num_inliers);
-  options.AddDefaultOption("outlier_match_ratio",
-                           &scene_options.outlier_match_ratio);
-  options.AddDefaultOption("epipolar_outliers",
-                           &scene_options.epipolar_outliers);
+  options.AddDefaultOption("min_num_shared_points",
+                           &scene_options.min_num_shared_points);
+  options.AddDefaultOption("wrong_match_fraction",
+                           &scene_options.wrong_match_fraction);
+  options.AddDefaultOption("epipolar_wrong_match_share",
+                           &scene_options.epipolar_wrong_match_share);
   options.AddDefaultOption("num_false_pairs", &scene_options.num_false_pairs);
   options.AddDefaultOption("false_pair_num_matches",
                            &scene_options.false_pair_num_matches);
   options.AddDefaultOption("num_repeated_structure_pairs",
                            &scene_options.num_repeated_structure_pairs);
+  options.AddDefaultOption("num_repeated_texture_pairs",
+                           &scene_options.num_repeated_texture_pairs);
+  options.AddDefaultOption("num_threads", &scene_options.num_threads);
   options.AddDefaultOption("seed", &seed);
   if (!options.Parse(argc, argv)) {
     return EXIT_FAILURE;
@@ -112,17 +117,22 @@ int RunSceneGenerator(int argc, char** argv) {
       scene, (std::filesystem::path(output_path) / "clusters.txt").string());
 
   LOG(INFO) << StringPrintf(
-      "Generated %d images (%d clusters of %d, %d per walkway), %d points, "
-      "%d verified pairs, %d false pairs, %d repeated-structure pairs in "
+      "Generated %d images (%d clusters of %d, %d per walkway), %d points; "
+      "%d matched pairs (%d by chance, %d on repeated structure, %d on "
+      "repeated texture), %d verified, %zu of %zu raw matches inliers, in "
       "%.1fs -> %s",
       static_cast<int>(scene.ground_truth.NumRegImages()),
       scene_options.num_clusters,
       scene_options.num_images_per_cluster,
       scene_options.num_images_per_link,
       static_cast<int>(scene.ground_truth.NumPoints3D()),
-      scene.num_verified_pairs,
+      scene.num_matched_pairs,
       scene.num_false_pairs,
       scene.num_repeated_structure_pairs,
+      scene.num_repeated_texture_pairs,
+      scene.num_verified_pairs,
+      scene.num_inlier_matches,
+      scene.num_raw_matches,
       timer.ElapsedSeconds(),
       output_path.c_str());
   return EXIT_SUCCESS;
