@@ -103,7 +103,8 @@ def main():
                "mean_reproj_px", "median_pos_err", "p90_pos_err",
                "median_pos_err_frac", "p90_pos_err_frac", "median_rot_err_deg",
                "time_vs_mapper", "time_vs_hierarchical", "time_vs_hier_fair",
-               "memory_vs_mapper", "mean_pos_err"]
+               "time_vs_global", "error_vs_global", "memory_vs_mapper",
+               "mean_pos_err"]
     for row in rows:
         assert row["exit"] == "0", row
         for field in numeric:
@@ -137,6 +138,8 @@ def main():
             errors
     table = open(os.path.join(out, "results.md")).read()
     for text in ("colmap mapper", "colmap community_mapper",
+                 "colmap global_mapper", "time / global",
+                 "median error / global",
                  "time / mapper", "closer than mapper", "Bar:",
                  "Each community's own images"):
         assert text in table, text
