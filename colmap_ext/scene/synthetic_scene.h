@@ -121,7 +121,7 @@ struct SyntheticSceneOptions {
   // Share of those wrong matches that lie within 4 pixels of their epipolar
   // line (COLMAP's default verification threshold), as repeated texture
   // along the line makes them: verification keeps them among the inliers.
-  // The others pair random keypoints, which verification rejects.
+  // The others pair random keypoints, most of which verification rejects.
   double epipolar_wrong_match_share = 0.25;
 
   // Number of pairs of images that share no point matched by chance, each
