@@ -33,9 +33,9 @@ constexpr double kWallDistance = 10.0;
 constexpr double kMaxWalkwayTurnDeg = 60.0;
 // The poster repeated on every wall: its width along the wall, the height of
 // its lower edge and its own height.
-constexpr double kPosterWidth = 10.0;
+constexpr double kPosterWidth = 5.0;
 constexpr double kPosterBottom = 1.0;
-constexpr double kPosterHeight = 5.0;
+constexpr double kPosterHeight = 4.0;
 // A surface point is seen up to this angle between its normal and the ray.
 constexpr double kMaxSurfaceViewingAngleDeg = 80.0;
 
@@ -222,8 +222,9 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
   // Per point: where it lies in a repeated pattern, if it does.
   std::vector<PatternPoint> pattern_points;
   // Per pattern: where each of its copies stands in the world (towers:
-  // landmark c's copy at its centre; posters: wall l's copy at the middle of
-  // the wall's foot, x along the wall, y towards it, z up).
+  // landmark c's copy at its centre; posters: wall l's copy at the foot of
+  // the wall below the poster's centre, x along the wall, y towards it, z
+  // up).
   std::vector<Rigid3d> world_from_copy[kNumPatterns];
   for (int c = 0; c < num_clusters; ++c) {
     world_from_copy[kTowerPattern].emplace_back(
@@ -263,7 +264,14 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
   }
   // Each walkway is lined on its left by a wall from tower to tower, tangent
   // to both, facing the walkway.
-  const int num_poster_points = posters ? options.num_points_per_link / 4 : 0;
+  // The poster is part of its wall: it replaces the wall's own points where
+  // it hangs, at the same density (every wall is landmark_spacing long).
+  const int num_poster_points =
+      posters ? static_cast<int>(std::round(
+                    options.num_points_per_link * kPosterWidth *
+                    kPosterHeight /
+                    (options.landmark_spacing * kWallHeight)))
+              : 0;
   std::vector<Eigen::Vector2d> poster_layout;
   for (int i = 0; i < num_poster_points; ++i) {
     poster_layout.emplace_back(
@@ -277,12 +285,21 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
     const Eigen::Vector2d left(-along.y(), along.x());
     const double length = (to - from).norm();
     const Eigen::Vector3d normal(-left.x(), -left.y(), 0);
+    // Where along the wall the poster hangs: anywhere on its middle half, so
+    // that no symmetry of the scene maps one copy onto another.
+    const double poster_position =
+        posters ? random.Uniform(0.25 * length, 0.75 * length) : 0;
     for (int i = 0; i < options.num_points_per_link; ++i) {
+      const double position = random.Uniform(0, length);
+      const double height = random.Uniform(0, kWallHeight);
+      if (posters && std::abs(position - poster_position) < kPosterWidth / 2 &&
+          height > kPosterBottom && height < kPosterBottom + kPosterHeight) {
+        continue;  // Covered by the poster.
+      }
       const Eigen::Vector2d xy =
-          from + random.Uniform(0, length) * along + kTowerRadius * left;
+          from + position * along + kTowerRadius * left;
       ScenePoint point;
-      point.xyz =
-          Eigen::Vector3d(xy.x(), xy.y(), random.Uniform(0, kWallHeight));
+      point.xyz = Eigen::Vector3d(xy.x(), xy.y(), height);
       point.normal = normal;
       points.push_back(point);
       pattern_points.emplace_back();
@@ -291,9 +308,9 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
     poster_axes.col(0) = Eigen::Vector3d(along.x(), along.y(), 0);
     poster_axes.col(1) = Eigen::Vector3d(left.x(), left.y(), 0);
     poster_axes.col(2) = Eigen::Vector3d::UnitZ();
-    const Eigen::Vector2d middle = from + 0.5 * length * along;
+    const Eigen::Vector2d foot = from + poster_position * along;
     const Rigid3d world_from_poster(Eigen::Quaterniond(poster_axes),
-                                    Eigen::Vector3d(middle.x(), middle.y(), 0));
+                                    Eigen::Vector3d(foot.x(), foot.y(), 0));
     world_from_copy[kPosterPattern].push_back(world_from_poster);
     for (int i = 0; i < num_poster_points; ++i) {
       ScenePoint point;

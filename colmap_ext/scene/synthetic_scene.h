@@ -140,7 +140,8 @@ struct SyntheticSceneOptions {
   int num_repeated_structure_pairs = 0;
 
   // Number of pairs falsely matched on repeated planar texture: every wall
-  // then carries the same poster at its middle and such a pair, between
+  // then carries the same poster (in place of its own texture there, at a
+  // random place of its middle half) and such a pair, between
   // walkway images of two different walls that see at least
   // `min_num_shared_points` corresponding poster points, matches those
   // points' keypoints. One homography explains their matches, as those
