@@ -682,22 +682,28 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
     }
   };
 
-  // A matched pair's matches with the matcher's wrong ones added, written;
-  // with exact two-view geometries also as verified, at the pose of the
-  // second view taken `second_from_first` away.
-  auto write_matches = [&](const size_t idx1,
-                           const size_t idx2,
-                           FeatureMatches matches,
-                           const Rigid3d& second_from_first) {
+  // The matcher's wrong matches added to a pair's matches, shuffled.
+  auto add_wrong_matches = [&](const size_t idx1,
+                               const size_t idx2,
+                               FeatureMatches* matches) {
     const double wrong_per_match =
         options.wrong_match_fraction / (1.0 - options.wrong_match_fraction);
     const int num_wrong =
-        static_cast<int>(std::round(wrong_per_match * matches.size()));
+        static_cast<int>(std::round(wrong_per_match * matches->size()));
     const int num_epipolar = static_cast<int>(
         std::round(options.epipolar_wrong_match_share * num_wrong));
-    add_epipolar_matches(idx1, idx2, num_epipolar, &matches);
-    add_random_matches(idx1, idx2, num_wrong - num_epipolar, &matches);
-    random.Shuffle(&matches);
+    add_epipolar_matches(idx1, idx2, num_epipolar, matches);
+    add_random_matches(idx1, idx2, num_wrong - num_epipolar, matches);
+    random.Shuffle(matches);
+  };
+
+  // A matched pair's raw matches written; with exact two-view geometries
+  // also as verified, at the pose of the second view taken
+  // `second_from_first` away.
+  auto write_pair = [&](const size_t idx1,
+                        const size_t idx2,
+                        FeatureMatches matches,
+                        const Rigid3d& second_from_first) {
     database->WriteMatches(image_ids[idx1], image_ids[idx2], matches);
     scene->num_raw_matches += matches.size();
     if (options.exact_two_view_geometries) {
@@ -752,7 +758,8 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
       }
       ++scene->num_matched_pairs;
       if (database != nullptr) {
-        write_matches(idx1, idx2, std::move(matches), Rigid3d());
+        add_wrong_matches(idx1, idx2, &matches);
+        write_pair(idx1, idx2, std::move(matches), Rigid3d());
       }
     }
   }
@@ -778,17 +785,7 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
         FeatureMatches matches;
         add_random_matches(
             idx1, idx2, options.false_pair_num_matches, &matches);
-        database->WriteMatches(image_ids[idx1], image_ids[idx2], matches);
-        scene->num_raw_matches += matches.size();
-        if (options.exact_two_view_geometries) {
-          TwoViewGeometry two_view_geometry =
-              exact_two_view_geometry(idx1, idx2, Rigid3d());
-          two_view_geometry.inlier_matches = std::move(matches);
-          ++scene->num_verified_pairs;
-          scene->num_inlier_matches += two_view_geometry.inlier_matches.size();
-          database->WriteTwoViewGeometry(
-              image_ids[idx1], image_ids[idx2], two_view_geometry);
-        }
+        write_pair(idx1, idx2, std::move(matches), Rigid3d());
       }
       break;
     }
@@ -892,11 +889,12 @@ void SynthesizeCommunityScene(const SyntheticSceneOptions& options,
                 [](const FeatureMatch& a, const FeatureMatch& b) {
                   return a.point2D_idx1 < b.point2D_idx1;
                 });
-      write_matches(idx1,
-                    idx2,
-                    std::move(matches),
-                    world_from_copy[pattern][copy2] *
-                        Inverse(world_from_copy[pattern][copy1]));
+      add_wrong_matches(idx1, idx2, &matches);
+      write_pair(idx1,
+                 idx2,
+                 std::move(matches),
+                 world_from_copy[pattern][copy2] *
+                     Inverse(world_from_copy[pattern][copy1]));
     }
   }
 

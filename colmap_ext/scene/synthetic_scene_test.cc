@@ -463,6 +463,8 @@ TEST(SynthesizeCommunityScene, RepeatedStructurePairsAgreeWithAStackedTower) {
 TEST(SynthesizeCommunityScene, RepeatedTexturePairsAgreeWithOneHomography) {
   SyntheticSceneOptions options = SmallScene();
   options.num_images_per_link = 16;
+  // The poster has the wall's density: enough points on it to be matched.
+  options.num_points_per_link = 1200;
   options.num_repeated_texture_pairs = 6;
   // Copies of the poster on two walls: points at the same height (no two
   // points of the walls' own texture are), a wall apart.
