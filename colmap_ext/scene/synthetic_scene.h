@@ -114,8 +114,8 @@ struct SyntheticSceneOptions {
   // A pair of images is matched if it shares at least this many points.
   int min_num_shared_points = 15;
 
-  // Fraction of every matched pair's raw matches that are wrong (a
-  // matcher's ratio test lets through about a quarter on real photographs).
+  // Fraction of every matched pair's raw matches that are wrong, as a
+  // matcher's ratio test lets them through.
   double wrong_match_fraction = 0.25;
 
   // Share of those wrong matches that lie within 4 pixels of their epipolar
