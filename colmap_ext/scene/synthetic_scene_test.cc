@@ -25,6 +25,15 @@ std::string ReadBytes(const std::filesystem::path& path) {
                      std::istreambuf_iterator<char>());
 }
 
+// The scene written to a new database in the test's own folder.
+std::shared_ptr<Database> SynthesizeInTestFolder(
+    const SyntheticSceneOptions& options, SyntheticScene* scene) {
+  const std::shared_ptr<Database> database = Database::Open(
+      std::filesystem::path(CreateTestFolder()) / "database.db");
+  SynthesizeCommunityScene(options, scene, database.get());
+  return database;
+}
+
 SyntheticSceneOptions SmallScene() {
   SyntheticSceneOptions options;
   options.num_clusters = 3;
@@ -69,10 +78,9 @@ bool IsTrueMatch(const Reconstruction& truth,
 TEST(SynthesizeCommunityScene, DatabaseMatchesGroundTruth) {
   SyntheticSceneOptions options = SmallScene();
   options.num_false_pairs = 6;
-  const std::shared_ptr<Database> database = Database::Open(
-      std::filesystem::path(CreateTestFolder()) / "database.db");
   SyntheticScene scene;
-  SynthesizeCommunityScene(options, &scene, database.get());
+  const std::shared_ptr<Database> database =
+      SynthesizeInTestFolder(options, &scene);
   const Reconstruction& truth = scene.ground_truth;
 
   // Images: clusters and walkways as asked.
@@ -193,10 +201,9 @@ TEST(SynthesizeCommunityScene, ExactGeometriesForUnitTests) {
   SyntheticSceneOptions options = SmallScene();
   options.exact_two_view_geometries = true;
   options.wrong_match_fraction = 0;
-  const std::shared_ptr<Database> database = Database::Open(
-      std::filesystem::path(CreateTestFolder()) / "database.db");
   SyntheticScene scene;
-  SynthesizeCommunityScene(options, &scene, database.get());
+  const std::shared_ptr<Database> database =
+      SynthesizeInTestFolder(options, &scene);
   const Reconstruction& truth = scene.ground_truth;
   const std::vector<std::pair<image_pair_t, TwoViewGeometry>>
       two_view_geometries = database->ReadTwoViewGeometries();
@@ -233,10 +240,9 @@ struct WrongMatches {
 WrongMatches WrongMatchesOf(const double epipolar_wrong_match_share) {
   SyntheticSceneOptions options = SmallScene();
   options.epipolar_wrong_match_share = epipolar_wrong_match_share;
-  const std::shared_ptr<Database> database = Database::Open(
-      std::filesystem::path(CreateTestFolder()) / "database.db");
   SyntheticScene scene;
-  SynthesizeCommunityScene(options, &scene, database.get());
+  const std::shared_ptr<Database> database =
+      SynthesizeInTestFolder(options, &scene);
   const Reconstruction& truth = scene.ground_truth;
   std::vector<double> distances;
   int num_true = 0;
@@ -325,10 +331,9 @@ TEST(SynthesizeCommunityScene, FocalLengthsOffTheNominalValue) {
   SyntheticSceneOptions options = SmallScene();
   options.single_camera = false;
   options.focal_length_noise = 0.05;
-  const std::shared_ptr<Database> database = Database::Open(
-      std::filesystem::path(CreateTestFolder()) / "database.db");
   SyntheticScene scene;
-  SynthesizeCommunityScene(options, &scene, database.get());
+  const std::shared_ptr<Database> database =
+      SynthesizeInTestFolder(options, &scene);
   // The database holds the nominal focal length as a prior; the truth, one
   // camera per image, spreads around it by about 5%.
   double sum_sq = 0;
@@ -370,10 +375,9 @@ RepeatedPairs CheckRepeatedPairs(
     const SyntheticSceneOptions& options,
     const std::function<bool(const Eigen::Vector3d&, const Eigen::Vector3d&)>&
         are_copies) {
-  const std::shared_ptr<Database> database = Database::Open(
-      std::filesystem::path(CreateTestFolder()) / "database.db");
   SyntheticScene scene;
-  SynthesizeCommunityScene(options, &scene, database.get());
+  const std::shared_ptr<Database> database =
+      SynthesizeInTestFolder(options, &scene);
   const Reconstruction& truth = scene.ground_truth;
   RepeatedPairs repeated;
   for (const auto& [pair_id, matches] : database->ReadAllMatches()) {
@@ -486,10 +490,9 @@ TEST(SynthesizeCommunityScene, StereoRigAsRigConfiguratorWritesIt) {
   options.num_rig_cameras = 2;
   options.rig_baseline = 0.4;
   options.rig_yaw_deg = 3.0;
-  const std::shared_ptr<Database> database = Database::Open(
-      std::filesystem::path(CreateTestFolder()) / "database.db");
   SyntheticScene scene;
-  SynthesizeCommunityScene(options, &scene, database.get());
+  const std::shared_ptr<Database> database =
+      SynthesizeInTestFolder(options, &scene);
   const Reconstruction& truth = scene.ground_truth;
 
   // Every camera position is a snapshot of the rig: two images.
