@@ -96,12 +96,15 @@ on how many seeds the bar's checks held.
 `--draws N robustness` runs every robustness family (loop, chain, dense and
 walkway, each `_clean`, `_random` with a quarter of the raw matches wrong at
 random and `_mixed` with some of them near their epipolar line, all
-verified by COLMAP: FAMILIES below) as N draws, scene seeds 1..N, and gives one table:
-community_mapper against the mapper on every draw, and per family on how
-many draws it had one model where the mapper has one, every image the
-mapper registers, a median error at most 1.5x and no worse than the
-mapper's. `--reuse mapper` takes the mapper's runs recorded in OUT
-by an earlier run (OUT/SCENE/mapper.json) instead of running it again.
+verified by COLMAP: FAMILIES below) as N draws, scene seeds 1..N: a table
+of every method on every draw, and a table per family of on how many draws
+community_mapper had one model where the mapper has one, every image the
+mapper registers, a median error at most 1.5x the mapper's, at most 1.25x
+the better of the mapper's and global_mapper's, no worse than the
+mapper's, with the medians over the draws of its error and time against
+the mapper's. `--reuse mapper` takes the mapper's runs recorded in OUT by
+an earlier run (OUT/SCENE/mapper.json) instead of running it again; a
+generated scene whose every run is reused is not generated again.
 
 `--doc docs/benchmark.md` also writes the Markdown results into that file,
 as a section headed by the scenes' names, with the command line that
@@ -475,20 +478,22 @@ def partition_graph_section(num_images):
             f"{figures['peak_memory_mb']:.0f} MB.\n")
 
 
-def generate_scene(name, out_dir):
-    """Generates the scene; returns (database, images, ground truth, number
+def generate_scene(name, out_dir, keep):
+    """Generates the scene (kept as it is on disk if `keep`: every method's
+    run on it is reused); returns (database, images, ground truth, number
     of images, knobs)."""
     scene_dir = os.path.join(out_dir, name, "scene")
     knobs = generated_knobs(name)
     log(f"== Scene {name}: {knobs}")
-    arguments = [SCENE_GENERATOR, "--output_path", scene_dir,
-                 "--overwrite", "1"]
-    for key, value in knobs.items():
-        arguments += ["--" + key, str(value)]
-    subprocess.run(arguments, check=True, stdout=subprocess.DEVNULL,
-                   stderr=subprocess.DEVNULL)
-    num_images = sum(1 for line in open(os.path.join(scene_dir,
-                                                     "clusters.txt"))
+    clusters = os.path.join(scene_dir, "clusters.txt")
+    if not (keep and os.path.exists(clusters)):
+        arguments = [SCENE_GENERATOR, "--output_path", scene_dir,
+                     "--overwrite", "1"]
+        for key, value in knobs.items():
+            arguments += ["--" + key, str(value)]
+        subprocess.run(arguments, check=True, stdout=subprocess.DEVNULL,
+                       stderr=subprocess.DEVNULL)
+    num_images = sum(1 for line in open(clusters)
                      if not line.startswith("#"))
     return (os.path.join(scene_dir, "database.db"),
             os.path.join(scene_dir, "images"),
@@ -621,8 +626,11 @@ def run_scene(name, out_dir, threads, methods, seeds, reuse):
         database, images, ground_truth, num_images, knobs = \
             prepare_real_scene(name, out_dir)
     else:
+        reused = all(method in reuse and os.path.exists(
+            os.path.join(out_dir, name, method + ".json"))
+            for method in methods)
         database, images, ground_truth, num_images, knobs = \
-            generate_scene(name, out_dir)
+            generate_scene(name, out_dir, reused and len(seeds) == 1)
     rows = []
     for index, seed in enumerate(seeds):
         scene_dir = os.path.join(out_dir, name) if index == 0 else \
@@ -899,9 +907,11 @@ def markdown(rows, scene_knobs, seeds):
 def robustness_section(rows, families, draws):
     """Every method on every draw of every family (the scenes FAMILY_sDRAW):
     a row per draw with each method's models, registered images, median
-    error and time against the mapper; a line per family with on how many
-    draws community_mapper held the bar against the mapper and against the
-    better of the mapper and global_mapper, and the bar over all draws."""
+    error and time against the mapper; then a row per family (and one over
+    all) with on how many draws community_mapper held each check against
+    the mapper and against the better of the mapper and global_mapper, and
+    the medians over the draws of its error and time against the mapper's
+    and of global_mapper's error against the mapper's."""
     peers = [method for method in ("mapper", "hierarchical", "hier_fair",
                                    "global")
              if any(row["method"] == method for row in rows)]
@@ -913,9 +923,9 @@ def robustness_section(rows, families, draws):
              "error, time / mapper.", "",
              "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     summary = []
-    totals = [0] * 6
+    everything = []
     for family in families:
-        checks = [0] * 6
+        draws_held = []
         for draw in draws:
             scene = f"{family}_s{draw}"
             by_method = {row["method"]: row for row in rows
@@ -934,33 +944,62 @@ def robustness_section(rows, families, draws):
                        for method in ("mapper", "global")
                        if method in by_method)
             best_ratio = community["median_pos_err"] / max(best, 1e-12)
+            global_ratio = by_method["global"]["median_pos_err"] / \
+                max(mapper["median_pos_err"], 1e-12) \
+                if "global" in by_method else float("nan")
             lines.append(
                 f"| {family} | {draw} | {mapper['images']} | " +
                 " | ".join(cell(by_method[method]) if method in by_method
                            else "n/a" for method in peers) +
                 f" | {cell(community)} | {error_ratio:.2f} | "
                 f"{best_ratio:.2f} |")
-            held = [community["models"] == 1 or mapper["models"] > 1,
-                    community["registered"] >= mapper["registered"],
-                    error_ratio <= 1.5, error_ratio <= 1.0,
-                    best_ratio <= 1.25, True]
-            checks = [count + passed for count, passed in zip(checks, held)]
-        totals = [total + count for total, count in zip(totals, checks)]
-        summary.append(f"- `{family}`: " + robustness_text(checks))
-    return (lines + ["", "On how many draws community_mapper held each "
-                     "check:", ""] + summary +
-            [f"- all families: " + robustness_text(totals), ""])
+            draws_held.append(dict(
+                one_model=community["models"] == 1 or mapper["models"] > 1,
+                registered=community["registered"] >= mapper["registered"],
+                within=error_ratio <= 1.5, within_best=best_ratio <= 1.25,
+                no_worse=error_ratio <= 1.0,
+                error_ratio=error_ratio,
+                time_ratio=community["time_vs_mapper"],
+                global_ratio=global_ratio))
+        everything += draws_held
+        summary.append(robustness_row(f"`{family}`", draws_held))
+    summary.append(robustness_row("all", everything))
+    return (lines + ["", "community_mapper over the draws: on how many it "
+                     "held each check, and medians over the draws (worst "
+                     "in brackets) of its median error and time against "
+                     "the mapper's, and of global_mapper's median error "
+                     "against the mapper's.", "",
+                     "| family | draws | one model where the mapper has "
+                     "one | every image the mapper registers | error at "
+                     "most 1.5x the mapper's | at most 1.25x the better of "
+                     "mapper, global_mapper | no worse than the mapper's | "
+                     "error / mapper | time / mapper | global_mapper error "
+                     "/ mapper |",
+                     "|---|---|---|---|---|---|---|---|---|---|"] + summary +
+            [""])
 
 
-def robustness_text(checks):
-    """The counts of robustness_section's checks as text."""
-    one_model, registered, within, no_worse, within_best, num_draws = checks
-    return (f"one model where the mapper has one {one_model}/{num_draws}; "
-            f"every image the mapper registers {registered}/{num_draws}; "
-            f"median error at most 1.5x the mapper's {within}/{num_draws}, "
-            f"no worse than the mapper's {no_worse}/{num_draws}, at most "
-            f"1.25x the better of the mapper's and global_mapper's "
-            f"{within_best}/{num_draws}")
+def robustness_row(name, draws_held):
+    """A row of robustness_section's summary over the draws `draws_held`."""
+    count = len(draws_held)
+    if not count:
+        return f"| {name} | 0 |" + " n/a |" * 8
+
+    def held(check):
+        return f"{sum(draw[check] for draw in draws_held)}/{count}"
+
+    def median(figure, with_worst=True):
+        values = [draw[figure] for draw in draws_held
+                  if draw[figure] == draw[figure]]
+        if not values:
+            return "n/a"
+        return f"{statistics.median(values):.2f}" + \
+            (f" ({max(values):.2f})" if with_worst else "")
+    return (f"| {name} | {count} | {held('one_model')} | "
+            f"{held('registered')} | {held('within')} | "
+            f"{held('within_best')} | {held('no_worse')} | "
+            f"{median('error_ratio')} | {median('time_ratio')} | "
+            f"{median('global_ratio', False)} |")
 
 
 def command_line(argv):
