@@ -911,7 +911,7 @@ def robustness_section(rows, families, draws):
     all) with on how many draws community_mapper held each check against
     the mapper and against the better of the mapper and global_mapper, and
     the medians over the draws of its error and time against the mapper's
-    and of global_mapper's error against the mapper's."""
+    and of the other methods' errors against the mapper's."""
     peers = [method for method in ("mapper", "hierarchical", "hier_fair",
                                    "global")
              if any(row["method"] == method for row in rows)]
@@ -944,9 +944,11 @@ def robustness_section(rows, families, draws):
                        for method in ("mapper", "global")
                        if method in by_method)
             best_ratio = community["median_pos_err"] / max(best, 1e-12)
-            global_ratio = by_method["global"]["median_pos_err"] / \
-                max(mapper["median_pos_err"], 1e-12) \
-                if "global" in by_method else float("nan")
+
+            def ratio_to_mapper(method):
+                return by_method[method]["median_pos_err"] / \
+                    max(mapper["median_pos_err"], 1e-12) \
+                    if method in by_method else float("nan")
             lines.append(
                 f"| {family} | {draw} | {mapper['images']} | " +
                 " | ".join(cell(by_method[method]) if method in by_method
@@ -960,22 +962,25 @@ def robustness_section(rows, families, draws):
                 no_worse=error_ratio <= 1.0,
                 error_ratio=error_ratio,
                 time_ratio=community["time_vs_mapper"],
-                global_ratio=global_ratio))
+                hierarchical_ratio=ratio_to_mapper("hierarchical"),
+                global_ratio=ratio_to_mapper("global")))
         everything += draws_held
         summary.append(robustness_row(f"`{family}`", draws_held))
     summary.append(robustness_row("all", everything))
     return (lines + ["", "community_mapper over the draws: on how many it "
                      "held each check, and medians over the draws (worst "
                      "in brackets) of its median error and time against "
-                     "the mapper's, and of global_mapper's median error "
-                     "against the mapper's.", "",
+                     "the mapper's, and of hierarchical_mapper's and "
+                     "global_mapper's median errors against the "
+                     "mapper's.", "",
                      "| family | draws | one model where the mapper has "
                      "one | every image the mapper registers | error at "
                      "most 1.5x the mapper's | at most 1.25x the better of "
                      "mapper, global_mapper | no worse than the mapper's | "
-                     "error / mapper | time / mapper | global_mapper error "
-                     "/ mapper |",
-                     "|---|---|---|---|---|---|---|---|---|---|"] + summary +
+                     "error / mapper | time / mapper | hierarchical_mapper "
+                     "error / mapper | global_mapper error / mapper |",
+                     "|---|---|---|---|---|---|---|---|---|---|---|"] +
+            summary +
             [""])
 
 
@@ -983,7 +988,7 @@ def robustness_row(name, draws_held):
     """A row of robustness_section's summary over the draws `draws_held`."""
     count = len(draws_held)
     if not count:
-        return f"| {name} | 0 |" + " n/a |" * 8
+        return f"| {name} | 0 |" + " n/a |" * 9
 
     def held(check):
         return f"{sum(draw[check] for draw in draws_held)}/{count}"
@@ -999,6 +1004,7 @@ def robustness_row(name, draws_held):
             f"{held('registered')} | {held('within')} | "
             f"{held('within_best')} | {held('no_worse')} | "
             f"{median('error_ratio')} | {median('time_ratio')} | "
+            f"{median('hierarchical_ratio', False)} | "
             f"{median('global_ratio', False)} |")
 
 
