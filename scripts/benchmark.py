@@ -103,8 +103,9 @@ mapper registers, a median error at most 1.5x the mapper's, at most 1.25x
 the better of the mapper's and global_mapper's, no worse than the
 mapper's, with the medians over the draws of its error and time against
 the mapper's. `--reuse mapper` takes the mapper's runs recorded in OUT by
-an earlier run (OUT/SCENE/mapper.json) instead of running it again; a
-generated scene whose every run is reused is not generated again.
+an earlier run (OUT/SCENE/mapper.json) instead of running it again. A
+generated scene in OUT is generated again only where its knobs or the scene
+generator changed.
 
 `--doc docs/benchmark.md` also writes the Markdown results into that file,
 as a section headed by the scenes' names, with the command line that
@@ -478,21 +479,26 @@ def partition_graph_section(num_images):
             f"{figures['peak_memory_mb']:.0f} MB.\n")
 
 
-def generate_scene(name, out_dir, keep):
-    """Generates the scene (kept as it is on disk if `keep`: every method's
-    run on it is reused); returns (database, images, ground truth, number
-    of images, knobs)."""
+def generate_scene(name, out_dir):
+    """Generates the scene, unless OUT holds it generated with the same
+    knobs by the scene generator as it is now (older than the scene);
+    returns (database, images, ground truth, number of images, knobs)."""
     scene_dir = os.path.join(out_dir, name, "scene")
     knobs = generated_knobs(name)
     log(f"== Scene {name}: {knobs}")
     clusters = os.path.join(scene_dir, "clusters.txt")
-    if not (keep and os.path.exists(clusters)):
+    record = os.path.join(scene_dir, "knobs.json")
+    if not (os.path.exists(clusters) and os.path.exists(record) and
+            json.load(open(record)) == knobs and
+            os.path.getmtime(SCENE_GENERATOR) < os.path.getmtime(record)):
         arguments = [SCENE_GENERATOR, "--output_path", scene_dir,
                      "--overwrite", "1"]
         for key, value in knobs.items():
             arguments += ["--" + key, str(value)]
         subprocess.run(arguments, check=True, stdout=subprocess.DEVNULL,
                        stderr=subprocess.DEVNULL)
+        with open(record, "w") as file:
+            json.dump(knobs, file)
     num_images = sum(1 for line in open(clusters)
                      if not line.startswith("#"))
     return (os.path.join(scene_dir, "database.db"),
@@ -626,11 +632,8 @@ def run_scene(name, out_dir, threads, methods, seeds, reuse):
         database, images, ground_truth, num_images, knobs = \
             prepare_real_scene(name, out_dir)
     else:
-        reused = all(method in reuse and os.path.exists(
-            os.path.join(out_dir, name, method + ".json"))
-            for method in methods)
         database, images, ground_truth, num_images, knobs = \
-            generate_scene(name, out_dir, reused and len(seeds) == 1)
+            generate_scene(name, out_dir)
     rows = []
     for index, seed in enumerate(seeds):
         scene_dir = os.path.join(out_dir, name) if index == 0 else \
