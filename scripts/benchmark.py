@@ -718,12 +718,16 @@ def run_methods(name, scene_dir, database, images, ground_truth, num_images,
             f"{row['models']} model(s), median error "
             f"{row['median_pos_err']:.4f}")
         results[method] = row
-    if "community" in results:
+    if "community" in results and \
+            "per_community" not in results["community"]:
+        # Recorded with the run, so that a reuse does not evaluate again.
         results["community"]["per_community"] = " ".join(
             f"{community}:{size}:" + "/".join(
                 f"{errors[key]:.4f}" for key in ["own"] + methods)
             for community, size, errors in per_community_errors(
                 scene_dir, ground_truth, methods))
+        with open(os.path.join(scene_dir, "community.json"), "w") as file:
+            json.dump(results["community"], file)
     nan = float("nan")
     errors = {method: center_errors(read_centers(
         os.path.join(scene_dir, method + "_centers.txt")))
