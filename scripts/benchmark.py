@@ -651,12 +651,14 @@ def run_methods(name, scene_dir, database, images, ground_truth, num_images,
     returns a row of figures per method. A method in `reuse` whose earlier
     run on the scene is recorded (SCENE_DIR/METHOD.json) is not run again."""
     results = {}
+    reused = set()
     leaf_size = None
     for method in methods:
         run_dir = os.path.join(scene_dir, method)
         record = os.path.join(scene_dir, method + ".json")
         if method in reuse and os.path.exists(record):
             results[method] = json.load(open(record))
+            reused.add(method)
             log(f"   {LABELS[method]}: the earlier run in {run_dir}")
             continue
         shutil.rmtree(run_dir, ignore_errors=True)
@@ -718,9 +720,8 @@ def run_methods(name, scene_dir, database, images, ground_truth, num_images,
             f"{row['models']} model(s), median error "
             f"{row['median_pos_err']:.4f}")
         results[method] = row
-    if "community" in results and \
-            "per_community" not in results["community"]:
-        # Recorded with the run, so that a reuse does not evaluate again.
+    if "community" in results and "community" not in reused:
+        # Recorded with the run: a reuse takes them from the record.
         results["community"]["per_community"] = " ".join(
             f"{community}:{size}:" + "/".join(
                 f"{errors[key]:.4f}" for key in ["own"] + methods)
