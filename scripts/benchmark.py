@@ -491,6 +491,8 @@ def generate_scene(name, out_dir):
     if not (os.path.exists(clusters) and os.path.exists(record) and
             json.load(open(record)) == knobs and
             os.path.getmtime(SCENE_GENERATOR) < os.path.getmtime(record)):
+        if os.path.exists(record):
+            os.remove(record)  # A generation cut short keeps no record.
         arguments = [SCENE_GENERATOR, "--output_path", scene_dir,
                      "--overwrite", "1"]
         for key, value in knobs.items():
