@@ -948,17 +948,15 @@ def robustness_section(rows, families, draws):
                 return (f"{row['models']}, {row['registered']}, "
                         f"{row['median_pos_err']:.4f}, "
                         f"{ratio(row['time_vs_mapper'], 2)}")
-            error_ratio = community["median_pos_err"] / \
-                max(mapper["median_pos_err"], 1e-12)
-            best = min(by_method[method]["median_pos_err"]
-                       for method in ("mapper", "global")
-                       if method in by_method)
-            best_ratio = community["median_pos_err"] / max(best, 1e-12)
-
             def ratio_to_mapper(method):
                 return by_method[method]["median_pos_err"] / \
                     max(mapper["median_pos_err"], 1e-12) \
                     if method in by_method else float("nan")
+            error_ratio = ratio_to_mapper("community")
+            best = min(by_method[method]["median_pos_err"]
+                       for method in ("mapper", "global")
+                       if method in by_method)
+            best_ratio = community["median_pos_err"] / max(best, 1e-12)
             lines.append(
                 f"| {family} | {draw} | {mapper['images']} | " +
                 " | ".join(cell(by_method[method]) if method in by_method
