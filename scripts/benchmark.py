@@ -315,8 +315,7 @@ COLORS = {"mapper": "tab:blue", "community": "tab:red",
           "hierarchical": "tab:green", "hier_fair": "tab:olive",
           "global": "tab:purple"}
 PHASES = ["Partition", "Communities", "Pairwise similarities",
-          "Similarity averaging", "Merge",
-          "Final bundle adjustment"]
+          "Similarity averaging", "Global refinement", "Registration"]
 
 
 def log(message):

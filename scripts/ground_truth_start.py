@@ -6,7 +6,6 @@ ground truth.
     scripts/ground_truth_start.py --model M --ground_truth GT --out DIR
                                   [--iterations 10,50,200]
                                   [--model_iterations N]
-                                  [--adjuster bundle_adjuster|model_adjuster]
 
 The start model keeps M's images, 2D points and tracks (every observation,
 exactly as M has them) and takes its poses and intrinsics from GT, moved
@@ -19,13 +18,8 @@ first in M's file for M). For each result the script prints the
 final cost (Ceres' RMS reprojection error) and the camera error against GT
 (build/model_evaluator).
 
-`--adjuster model_adjuster` runs build/model_adjuster instead: the same
-adjustment with Ceres' sparse Schur solver at any size (`bundle_adjuster`
-takes the iterative one above 1000 images), the gauge held by the first
-registered image of each model, and the cost printed with all its digits
-(RMS in px, then Ceres' cost, half the sum of squared residuals), as models
-of thousands of images differ in the seventh. `--model_iterations` bounds
-the adjustment from M (default: the largest of `--iterations`).
+`--model_iterations` bounds the adjustment from M (default: the largest of
+`--iterations`).
 
 Reading: if the adjustment from the ground truth stops near it at a cost at
 most M's, the observations determine the geometry and M's error is the
@@ -43,9 +37,7 @@ import sys
 
 import numpy as np
 
-from benchmark import BUILD, COLMAP, MODEL_EVALUATOR, evaluate
-
-MODEL_ADJUSTER = os.path.join(BUILD, "model_adjuster")
+from benchmark import COLMAP, MODEL_EVALUATOR, evaluate
 
 # Camera models whose parameters are their focal lengths (this many), the
 # principal point, then distortion (ignored for the linear triangulation of
@@ -187,20 +179,8 @@ def write_start(model_txt, gt_txt, out):
     return len(names)
 
 
-def adjust(start, out, iterations, log, adjuster):
+def adjust(start, out, iterations, log):
     os.makedirs(out, exist_ok=True)
-    if adjuster == "model_adjuster":
-        with open(log, "w") as f:
-            subprocess.run([MODEL_ADJUSTER, "--input_path", start,
-                            "--output_path", out, "--max_num_iterations",
-                            str(iterations)], check=True, stdout=f, stderr=f)
-        with open(log) as f:
-            values = dict(l.split(" ", 1) for l in f.read().splitlines()
-                          if re.match(r"^[a-z_]+ \S+$", l))
-        return {key: "%s (%s)" % (values[stage + "_rms_px"],
-                                  values[stage + "_cost"])
-                for key, stage in (("Initial", "initial"), ("Final", "final"))
-                if stage + "_rms_px" in values}
     with open(log, "w") as f:
         subprocess.run([COLMAP, "bundle_adjuster", "--input_path", start,
                         "--output_path", out,
@@ -219,13 +199,8 @@ def main():
     parser.add_argument("--out", required=True)
     parser.add_argument("--iterations", default="10,50,200")
     parser.add_argument("--model_iterations", type=int)
-    parser.add_argument("--adjuster", default="bundle_adjuster",
-                        choices=("bundle_adjuster", "model_adjuster"))
     args = parser.parse_args()
-    tools = [COLMAP, MODEL_EVALUATOR]
-    if args.adjuster == "model_adjuster":
-        tools.append(MODEL_ADJUSTER)
-    for tool in tools:
+    for tool in (COLMAP, MODEL_EVALUATOR):
         if not os.path.exists(tool):
             sys.exit("error: %s not found: build first (scripts/build.sh)" % tool)
     iterations = [int(i) for i in args.iterations.split(",")]
@@ -243,7 +218,7 @@ def main():
                  args.model_iterations or max(iterations)))
     for label, source, i in runs:
         out = os.path.join(args.out, "%s_%d" % (label.split()[-1], i))
-        cost = adjust(source, out, i, out + ".log", args.adjuster)
+        cost = adjust(source, out, i, out + ".log")
         errors = evaluate(out, args.ground_truth, out + "_centers.txt")
         print("| %s | %d | %s | %s | %.6f / %.6f | %.6f |" % (
             label, i, cost.get("Initial", "?"), cost.get("Final", "?"),

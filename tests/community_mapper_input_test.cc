@@ -1,7 +1,7 @@
 // Bad input to `colmap community_mapper`: each case must end with a message
 // naming the problem and what to do, a non-zero exit, and nothing written.
 
-#include "colmap_ext/util/testing.h"
+#include "colmap_ext/testing/testing.h"
 
 #include "colmap/scene/database.h"
 #include "colmap/util/file.h"
@@ -227,13 +227,6 @@ TEST_F(CommunityMapperInputTest, InvalidOptionValues) {
                 "--CommunityMapper.community_ba_global_ratio 1",
                 "community_ba_global_ratio is 1: it must be greater than 1");
   ExpectRefusal(good_database_,
-                "--CommunityMapper.ba_function_tolerance -1",
-                "ba_function_tolerance is -1: it must be 0 or more");
-  ExpectRefusal(good_database_,
-                "--CommunityMapper.ba_max_refinement_change -0.5",
-                "--CommunityMapper.ba_max_refinement_change is -0.5: it must "
-                "be 0 or more");
-  ExpectRefusal(good_database_,
                 "--CommunityMapper.pairwise_min_num_inliers 2",
                 "--CommunityMapper.pairwise_min_num_inliers is 2: it must be "
                 "at least 3");
@@ -316,11 +309,11 @@ TEST_F(CommunityMapperInputTest, OptionsBesideAProjectFileAreRefused) {
     std::string output;
     EXPECT_NE(RunCommand(std::string(COLMAP_BINARY) + " " + command +
                              " --project_path " + ShellQuote(project_path) +
-                             " --CommunityMapper.ba_function_tolerance=0",
+                             " --CommunityMapper.skip_registration=1",
                          &output),
               0)
         << command;
-    EXPECT_NE(output.find("--CommunityMapper.ba_function_tolerance on the "
+    EXPECT_NE(output.find("--CommunityMapper.skip_registration on the "
                           "command line would be ignored"),
               std::string::npos)
         << command << ": " << output;

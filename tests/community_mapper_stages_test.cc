@@ -4,13 +4,13 @@
 // output folder whose plan does not fit, and communities outside the plan;
 // the merge joins a community's second model as a community of its own.
 
-#include "colmap_ext/scene/community_io.h"
-#include "colmap_ext/scene/community_workspace.h"
-#include "colmap_ext/scene/model_evaluation.h"
-#include "colmap_ext/sfm/community_merge.h"
-#include "colmap_ext/sfm/model_join.h"
-#include "colmap_ext/util/atomic_output.h"
-#include "colmap_ext/util/testing.h"
+#include "colmap_ext/workflow/community_io.h"
+#include "colmap_ext/workflow/community_workspace.h"
+#include "colmap_ext/testing/model_evaluation.h"
+#include "colmap_ext/merge/community_merger.h"
+#include "colmap_ext/merge/model_join.h"
+#include "colmap_ext/workflow/atomic_output.h"
+#include "colmap_ext/testing/testing.h"
 
 #include "colmap/geometry/sim3.h"
 #include "colmap/scene/database.h"
@@ -337,7 +337,7 @@ TEST_F(CommunityMapperStages, StagesRefuseWhatDoesNotFitThePlan) {
   EXPECT_EQ(ReadTextFile(out / "plan.txt"), plan);
 }
 
-// The images the merged models' refinements registered anew, by the log.
+// The images the merged models' registrations registered anew, by the log.
 int NumNewlyRegistered(const std::string& log) {
   const std::regex pattern("(\\d+) images newly registered");
   int num = 0;
@@ -474,19 +474,19 @@ TEST_F(CommunityMapperStages, SecondModelOfACommunityTakesPart) {
   // Where nothing confirms the links of bridges (here: they need more
   // shared images than any link has, and no number of inliers stands in),
   // they are dropped and their communities are parts of their own; their
-  // models still join, as blocks through a few of their images registered
-  // one by one, into one model as accurate (the merge stage in this
-  // process, with those settings).
+  // images still join, registered into the largest part's model, into one
+  // model as accurate (the merge stage in this process, with those
+  // settings).
   merge("second-model-unconfirmed", /*keep_second=*/true);
-  CommunityMergeOptions options;
+  CommunityMergerOptions options;
   options.database_path = DatabasePath().string();
   options.incremental_options.num_threads = 1;
   options.similarity_averaging.min_num_shared_images_on_bridge = 1000;
   options.similarity_averaging.full_support_num_inliers = 1e9;
-  const CommunityMergeResult unconfirmed_result = MergeCommunities(
-      options,
-      plan,
-      CommunityWorkspace(*root_ / "second-model-unconfirmed"));
+  CommunityMerger merger(
+      options, plan, CommunityWorkspace(*root_ / "second-model-unconfirmed"));
+  merger.Solve();
+  const CommunityMergerResult& unconfirmed_result = merger.Result();
   EXPECT_LT(unconfirmed_result.num_kept_similarities,
             unconfirmed_result.num_estimated_similarities);
   ASSERT_EQ(unconfirmed_result.models.size(), 1);

@@ -4,9 +4,9 @@
 // compared with the ground-truth cameras of the Strecha sets in
 // ../shared/data/strecha (skipped, with a message, where it is absent).
 
-#include "colmap_ext/scene/community_io.h"
-#include "colmap_ext/scene/model_evaluation.h"
-#include "colmap_ext/util/testing.h"
+#include "colmap_ext/workflow/community_io.h"
+#include "colmap_ext/testing/model_evaluation.h"
+#include "colmap_ext/testing/testing.h"
 
 #include "colmap/util/file.h"
 #include "colmap/util/logging.h"

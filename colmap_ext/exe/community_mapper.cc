@@ -2,11 +2,11 @@
 
 #include "colmap_ext/exe/community_mapper_input.h"
 #include "colmap_ext/exe/community_mapper_options.h"
-#include "colmap_ext/scene/community_workspace.h"
-#include "colmap_ext/util/atomic_output.h"
-#include "colmap_ext/util/database_retry.h"
+#include "colmap_ext/workflow/community_workspace.h"
+#include "colmap_ext/workflow/atomic_output.h"
+#include "colmap_ext/workflow/database_retry.h"
 #include "colmap_ext/util/log_tag.h"
-#include "colmap_ext/util/output_lock.h"
+#include "colmap_ext/workflow/output_lock.h"
 #include "colmap_ext/util/process_memory.h"
 
 #include "colmap/controllers/incremental_pipeline.h"

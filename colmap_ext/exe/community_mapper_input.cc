@@ -1,8 +1,8 @@
 #include "colmap_ext/exe/community_mapper_input.h"
 
-#include "colmap_ext/scene/community_io.h"
-#include "colmap_ext/scene/community_workspace.h"
-#include "colmap_ext/scene/database_migration.h"
+#include "colmap_ext/workflow/community_io.h"
+#include "colmap_ext/workflow/community_workspace.h"
+#include "colmap_ext/workflow/database_migration.h"
 
 #include "colmap/scene/database.h"
 #include "colmap/util/file.h"

@@ -3,7 +3,7 @@
 // logs what is wrong and what to do.
 #pragma once
 
-#include "colmap_ext/controllers/community_mapper.h"
+#include "colmap_ext/workflow/community_mapper.h"
 
 #include <string>
 #include <vector>

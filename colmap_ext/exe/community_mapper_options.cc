@@ -1,6 +1,6 @@
 #include "colmap_ext/exe/community_mapper_options.h"
 
-#include "colmap_ext/util/atomic_output.h"
+#include "colmap_ext/workflow/atomic_output.h"
 
 #include "colmap/util/file.h"
 
@@ -25,8 +25,7 @@ std::vector<CommunityMapperOption> CommunityMapperOptionTable(
     CommunityMapperCommandOptions* options) {
   CommunityMapperController::Options& mapper = options->mapper;
   CommunityDetectionOptions& detection = mapper.community_detection;
-  CommunityMergeOptions& merge = mapper.merge;
-  MergedModelRefinementOptions& refinement = merge.refinement;
+  CommunityMergerOptions& merge = mapper.merge;
   SimilarityAveragingOptions& averaging = merge.similarity_averaging;
   const bool kShapesPlan = true;
   const bool kAdvanced = true;
@@ -68,9 +67,15 @@ std::vector<CommunityMapperOption> CommunityMapperOptionTable(
        "at least Mapper.min_model_size of its own images take part in the "
        "merge as extra communities (0: their images are registered one by "
        "one)"},
-      {"register_remaining_images",
-       &refinement.register_remaining_images,
-       "the merged model registers the images that no community registered"},
+      {"skip_global_refinement",
+       &merge.skip_global_refinement,
+       "the merge's stage 3 off: each part's joined model goes to the "
+       "registration as the similarity averaging placed it, without its "
+       "robust adjustment and retriangulation"},
+      {"skip_registration",
+       &merge.skip_registration,
+       "the merge's stage 4 off: the images no community registered stay "
+       "unregistered, and parts no link joins stay models of their own"},
       {"overwrite",
        &options->overwrite,
        "replace the results of an earlier run in output_path instead of "
@@ -134,38 +139,6 @@ std::vector<CommunityMapperOption> CommunityMapperOptionTable(
        "drop a similarity between two communities if the averaging places "
        "the two copies of its inlier points further apart than this fraction "
        "of their spread (median)",
-       false,
-       kAdvanced},
-      {"ba_function_tolerance",
-       &refinement.function_tolerance,
-       "the merged model's bundle adjustments stop once an iteration gains "
-       "less than this fraction of the cost",
-       false,
-       kAdvanced},
-      {"ba_max_refinement_change",
-       &refinement.max_refinement_change,
-       "the merged model's rounds of bundle adjustment, filtering and track "
-       "completion stop once fewer than this fraction of the observations "
-       "change (-1: Mapper.ba_global_max_refinement_change)",
-       false,
-       kAdvanced},
-      {"ba_reduced_adjustment",
-       &refinement.reduced_adjustment,
-       "the merged model's rounds adjust the cameras on a selected subset of "
-       "the tracks and the other points with the cameras fixed, where that "
-       "subset holds at most half of the observations (0: over all)",
-       false,
-       kAdvanced},
-      {"ba_reload_correspondences",
-       &refinement.reload_correspondences,
-       "the merged model's bundle adjustments run with the correspondences "
-       "released, loaded again after each (less memory, a little more time)",
-       false,
-       kAdvanced},
-      {"ba_sparse_solver",
-       &refinement.sparse_solver,
-       "the sparse direct solver in the merged model's bundle adjustments at "
-       "any size (0: as COLMAP chooses, iterative above 1000 images)",
        false,
        kAdvanced},
   };

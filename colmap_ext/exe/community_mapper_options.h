@@ -11,7 +11,7 @@
 // structs); the range checks are their Check()s.
 #pragma once
 
-#include "colmap_ext/controllers/community_mapper.h"
+#include "colmap_ext/workflow/community_mapper.h"
 
 #include "colmap/controllers/option_manager.h"
 

@@ -1,6 +1,6 @@
 #include "colmap_ext/exe/community_mapper_options.h"
 
-#include "colmap_ext/scene/community_workspace.h"
+#include "colmap_ext/workflow/community_workspace.h"
 
 #include <filesystem>
 #include <set>
@@ -72,7 +72,8 @@ TEST(CommunityMapperOptionTable, PlanKeysAreThePartitionsAndCommunities) {
   // The merge's and the run's own options may differ between runs of one
   // plan.
   for (const std::string key :
-       {"num_workers", "overwrite", "pairwise_min_num_inliers", "ba_sparse_solver"}) {
+       {"num_workers", "overwrite", "pairwise_min_num_inliers",
+        "skip_global_refinement", "skip_registration"}) {
     EXPECT_EQ(key_set.count(key), 0) << key;
   }
 }

@@ -1,8 +1,8 @@
 #include "colmap_ext/exe/community_mapper.h"
 
-#include "colmap_ext/scene/community_workspace.h"
-#include "colmap_ext/scene/synthetic_scene.h"
-#include "colmap_ext/util/testing.h"
+#include "colmap_ext/workflow/community_workspace.h"
+#include "colmap_ext/testing/synthetic_scene.h"
+#include "colmap_ext/testing/testing.h"
 
 #include "colmap/scene/database.h"
 #include "colmap/util/file.h"

@@ -13,9 +13,9 @@
 // rig_rotation_error_deg and rig_baseline_error_fraction give the error of
 // the model's rig calibration (the largest over the rigs' cameras).
 
-#include "colmap_ext/scene/community_io.h"
-#include "colmap_ext/scene/model_evaluation.h"
-#include "colmap_ext/util/atomic_output.h"
+#include "colmap_ext/workflow/community_io.h"
+#include "colmap_ext/testing/model_evaluation.h"
+#include "colmap_ext/workflow/atomic_output.h"
 
 #include "colmap/controllers/option_manager.h"
 #include "colmap/util/file.h"

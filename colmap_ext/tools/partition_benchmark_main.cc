@@ -11,7 +11,7 @@
 // by a few images, as walkways link landmarks. Prints "key value" lines: the
 // graph's size, seconds, communities and the peak modularity.
 
-#include "colmap_ext/graph/community_detection.h"
+#include "colmap_ext/partition/community_detection.h"
 #include "colmap_ext/util/process_memory.h"
 
 #include "colmap/controllers/option_manager.h"

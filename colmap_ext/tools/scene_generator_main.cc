@@ -1,5 +1,5 @@
 // scene_generator: writes a generated scene with community structure (see
-// colmap_ext/scene/synthetic_scene.h) as a COLMAP project:
+// colmap_ext/testing/synthetic_scene.h) as a COLMAP project:
 //
 //   OUT/database.db     rigs, cameras, frames, images, keypoints, raw
 //                       matches and the two-view geometries COLMAP's own
@@ -13,7 +13,7 @@
 //
 //   scene_generator --output_path OUT --num_clusters 3 --seed 1 ...
 
-#include "colmap_ext/scene/synthetic_scene.h"
+#include "colmap_ext/testing/synthetic_scene.h"
 
 #include "colmap/controllers/option_manager.h"
 #include "colmap/scene/database.h"

@@ -36,7 +36,7 @@ bool ReleaseFreedMemory();
 // next phase. A run whose phases hold different data (communities, then the
 // merge) then peaks at the next phase's data plus the last one's remnants;
 // with the threshold fixed, less is left and the peak is lower at the same
-// run time (docs/design.md). Returns whether the threshold was set.
+// run time. Returns whether the threshold was set.
 bool MapLargeAllocationsApart(int min_bytes = 128 * 1024);
 
 }  // namespace colmap

@@ -1,0 +1,342 @@
+#include "colmap_ext/merge/community_alignment.h"
+
+#include "colmap/math/random.h"
+#include "colmap/util/logging.h"
+#include "colmap/util/string.h"
+#include "colmap/util/threading.h"
+#include "colmap/util/types.h"
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+#include <set>
+#include <string>
+
+namespace colmap {
+
+CrossEdges GroupCrossEdges(
+    const ViewGraph& view_graph,
+    const std::unordered_map<image_t, int>& community_of_image) {
+  CrossEdges cross_edges;
+  for (const ViewGraph::Edge& edge : view_graph.Edges()) {
+    image_t image_id1 = view_graph.ImageIds()[edge.vertex1];
+    image_t image_id2 = view_graph.ImageIds()[edge.vertex2];
+    const auto it1 = community_of_image.find(image_id1);
+    const auto it2 = community_of_image.find(image_id2);
+    if (it1 == community_of_image.end() || it2 == community_of_image.end() ||
+        it1->second == it2->second) {
+      continue;
+    }
+    int community1 = it1->second;
+    int community2 = it2->second;
+    if (community1 > community2) {
+      std::swap(community1, community2);
+      std::swap(image_id1, image_id2);
+    }
+    cross_edges[{community1, community2}].emplace_back(image_id1, image_id2);
+  }
+  return cross_edges;
+}
+
+namespace {
+
+// What one pair of communities gives: its similarity (if usable), its false
+// cross pairs and its log line.
+struct PairOutcome {
+  bool has_similarity = false;
+  RelativeSimilarity similarity;
+  std::vector<image_pair_t> false_pairs;
+  std::vector<RejectedSimilarity> rejected;
+  std::string log;
+};
+
+// A transform estimated between communities 1 and 2 and its inliers, as
+// the averaging takes it (the shared images not yet checked).
+RelativeSimilarity ToRelativeSimilarity(const int community1,
+                                        const int community2,
+                                        const PairwiseSimilarity& estimate) {
+  RelativeSimilarity relative;
+  relative.community1 = community1;
+  relative.community2 = community2;
+  relative.second_from_first = estimate.second_from_first;
+  relative.points1 = estimate.inlier_points1;
+  relative.points2 = estimate.inlier_points2;
+  relative.point3D_ids = estimate.inlier_point3D_ids;
+  relative.num_inliers = estimate.num_inliers;
+  return relative;
+}
+
+// The similarity of communities 1 and 2 from the images both models
+// registered and the matches of their cross edges (read from `database`
+// under `database_mutex`). RANSAC draws from a seed of the pair's own, so
+// that the outcome does not depend on the thread that runs it or on the
+// order of the pairs.
+PairOutcome EstimatePairSimilarity(
+    const Database& database,
+    std::mutex* database_mutex,
+    const std::function<bool(image_t, image_t)>& is_verified_pair,
+    const std::function<bool(image_t, image_t)>& is_compared_pair,
+    const int community1,
+    const int community2,
+    const Reconstruction& model1,
+    const Reconstruction& model2,
+    const std::vector<std::pair<image_t, image_t>>& cross_edges,
+    const PairwiseSimilarityOptions& pairwise_options,
+    const CovisibilityCheckOptions& covisibility_options) {
+  SetPRNGSeed(static_cast<unsigned>(kDefaultPRNGSeed) +
+              static_cast<unsigned>(
+                  ImagePairToPairId(static_cast<image_t>(community1 + 1),
+                                    static_cast<image_t>(community2 + 1))));
+  PairOutcome outcome;
+  // Images on the border that both models registered: each of their
+  // keypoints with a 3D point in both is a correspondence.
+  std::vector<CrossPairMatches> cross_pairs;
+  for (const image_t image_id : model1.RegImageIds()) {
+    if (model2.ExistsImage(image_id) && model2.Image(image_id).HasPose()) {
+      CrossPairMatches shared;
+      shared.image_id1 = image_id;
+      shared.image_id2 = image_id;
+      for (point2D_t idx = 0; idx < model1.Image(image_id).NumPoints2D();
+           ++idx) {
+        shared.matches.emplace_back(idx, idx);
+      }
+      cross_pairs.push_back(std::move(shared));
+    }
+  }
+  const size_t num_shared_images = cross_pairs.size();
+  {
+    std::lock_guard<std::mutex> lock(*database_mutex);
+    for (const auto& image_pair : cross_edges) {
+      CrossPairMatches cross_pair;
+      cross_pair.image_id1 = image_pair.first;
+      cross_pair.image_id2 = image_pair.second;
+      cross_pair.matches =
+          database.ReadTwoViewGeometry(image_pair.first, image_pair.second)
+              .inlier_matches;
+      cross_pairs.push_back(std::move(cross_pair));
+    }
+  }
+  const PointCorrespondences correspondences =
+      FindPointCorrespondences(model1, model2, cross_pairs);
+
+  CovisibilityCheck covisibility;
+  std::string rejected;
+  int num_rejected = 0;
+  const PairwiseSimilarity similarity = EstimatePairwiseSimilarity(
+      correspondences,
+      pairwise_options,
+      [&](const PairwiseSimilarity& candidate) {
+        covisibility = CheckCovisibility(model1,
+                                         model2,
+                                         candidate.second_from_first,
+                                         is_verified_pair,
+                                         is_compared_pair,
+                                         covisibility_options);
+        if (!covisibility.consistent) {
+          RejectedSimilarity rejected_similarity;
+          rejected_similarity.similarity =
+              ToRelativeSimilarity(community1, community2, candidate);
+          rejected_similarity.check = covisibility;
+          outcome.rejected.push_back(std::move(rejected_similarity));
+          rejected += StringPrintf(
+              " [%d inliers rejected: co-visible pairs verified %d of %d "
+              "across, %d of %d inside; close views %d of %d across, %d of "
+              "%d inside]",
+              candidate.num_inliers,
+              covisibility.num_verified_cross_pairs,
+              covisibility.num_predicted_cross_pairs,
+              covisibility.num_verified_internal_pairs,
+              covisibility.num_predicted_internal_pairs,
+              covisibility.num_verified_close_cross_pairs,
+              covisibility.num_predicted_close_cross_pairs,
+              covisibility.num_verified_close_internal_pairs,
+              covisibility.num_predicted_close_internal_pairs);
+        }
+        return covisibility.consistent;
+      },
+      &num_rejected);
+  SharedImageAgreement agreement;
+  int num_supporting_images = 0;
+  if (similarity.success) {
+    num_supporting_images =
+        CountSupportingImages(model1, model2, similarity.inlier_point3D_ids);
+    agreement =
+        CheckSharedImages(model1,
+                          model2,
+                          similarity.second_from_first,
+                          MedianDistanceToMedian(similarity.inlier_points2),
+                          pairwise_options);
+  }
+  outcome.log = StringPrintf(
+      "Communities %d-%d: %d shared images, %d cross edges, %d point "
+      "correspondences%s -> %s",
+      community1,
+      community2,
+      static_cast<int>(num_shared_images),
+      static_cast<int>(cross_edges.size()),
+      static_cast<int>(correspondences.Size()),
+      rejected.c_str(),
+      similarity.success
+          ? StringPrintf("%d inliers seen by %d images or more of each "
+                         "model, scale %.4f, co-visible pairs "
+                         "verified %d of %d across, %d of %d inside, "
+                         "shared images placed alike %d of %d (largest "
+                         "difference %.1f deg, %.2f spreads): used",
+                         similarity.num_inliers,
+                         num_supporting_images,
+                         similarity.second_from_first.scale(),
+                         covisibility.num_verified_cross_pairs,
+                         covisibility.num_predicted_cross_pairs,
+                         covisibility.num_verified_internal_pairs,
+                         covisibility.num_predicted_internal_pairs,
+                         agreement.num_agreeing,
+                         agreement.num_shared_images,
+                         agreement.max_rotation_deg,
+                         agreement.max_relative_distance)
+                .c_str()
+      : num_rejected > 0 ? "no transform explains the matches, not used"
+                         : "too little support, not used");
+
+  // The cross pairs whose linked points mostly supported rejected transforms
+  // are false (left in the refinement, the matches between two identical
+  // towers become tracks that tie each point of one tower to its twin on the
+  // other and bend the merged model), each also recorded with the rejected
+  // transform it mostly supports (ResidualsAgainstMerge). Each rejected
+  // transform is estimated from the outliers of those before it
+  // (EstimatePairwiseSimilarity), so their inliers are disjoint and a pair's
+  // points supporting any of them are the sum of those supporting each.
+  if (!outcome.rejected.empty()) {
+    std::vector<std::set<std::pair<point3D_t, point3D_t>>>
+        rejected_inliers_by_transform;
+    for (const RejectedSimilarity& rejected_similarity : outcome.rejected) {
+      rejected_inliers_by_transform.emplace_back(
+          rejected_similarity.similarity.point3D_ids.begin(),
+          rejected_similarity.similarity.point3D_ids.end());
+    }
+    for (size_t k = num_shared_images; k < cross_pairs.size(); ++k) {
+      const PointCorrespondences pair_points =
+          FindPointCorrespondences(model1, model2, {cross_pairs[k]});
+      const image_pair_t pair_id =
+          ImagePairToPairId(cross_pairs[k].image_id1, cross_pairs[k].image_id2);
+      size_t num_rejected_points = 0;
+      for (size_t j = 0; j < outcome.rejected.size(); ++j) {
+        size_t num_supporting = 0;
+        for (size_t i = 0; i < pair_points.Size(); ++i) {
+          num_supporting += rejected_inliers_by_transform[j].count(
+              {pair_points.point3D_ids1[i], pair_points.point3D_ids2[i]});
+        }
+        if (2 * num_supporting > pair_points.Size()) {
+          outcome.rejected[j].pairs.push_back(pair_id);
+        }
+        num_rejected_points += num_supporting;
+      }
+      if (2 * num_rejected_points > pair_points.Size()) {
+        outcome.false_pairs.push_back(pair_id);
+      }
+    }
+  }
+  if (!similarity.success) {
+    return outcome;
+  }
+  RelativeSimilarity& relative = outcome.similarity;
+  relative = ToRelativeSimilarity(community1, community2, similarity);
+  relative.num_supporting_images = num_supporting_images;
+  relative.num_shared_images = agreement.num_shared_images;
+  relative.num_agreeing_shared_images = agreement.num_agreeing;
+  relative.max_shared_image_relative_distance = agreement.max_relative_distance;
+  outcome.has_similarity = true;
+  return outcome;
+}
+
+}  // namespace
+
+CommunitySimilarities EstimateCommunitySimilarities(
+    const Database& database,
+    const ViewGraph& view_graph,
+    const CrossEdges& cross_edges,
+    const std::vector<std::shared_ptr<const Reconstruction>>& models,
+    const PairwiseSimilarityOptions& pairwise_options,
+    const CovisibilityCheckOptions& covisibility_options,
+    const int num_threads) {
+  std::unordered_set<image_pair_t> verified_pairs;
+  for (const ViewGraph::Edge& edge : view_graph.Edges()) {
+    verified_pairs.insert(
+        ImagePairToPairId(view_graph.ImageIds()[edge.vertex1],
+                          view_graph.ImageIds()[edge.vertex2]));
+  }
+  const auto is_verified_pair = [&verified_pairs](const image_t image_id1,
+                                                  const image_t image_id2) {
+    return verified_pairs.count(ImagePairToPairId(image_id1, image_id2)) > 0;
+  };
+
+  // COLMAP's matchers record every pair they compare, those whose
+  // verification failed too: a pair the matcher compared has a two-view
+  // geometry in the database, verified or not. A database without a failed
+  // pair (e.g. the generated scenes, which store the verified pairs only)
+  // cannot tell a pair never compared from one that failed: every pair
+  // counts as compared, as after exhaustive matching.
+  std::mutex database_mutex;
+  std::function<bool(image_t, image_t)> is_compared_pair;
+  if (view_graph.NumFailedPairs() > 0) {
+    is_compared_pair = [&](const image_t image_id1, const image_t image_id2) {
+      if (is_verified_pair(image_id1, image_id2)) {
+        return true;
+      }
+      std::lock_guard<std::mutex> lock(database_mutex);
+      return database.ExistsTwoViewGeometry(image_id1, image_id2);
+    };
+  }
+
+  std::vector<const CrossEdges::value_type*> pairs;
+  for (const auto& pair_and_edges : cross_edges) {
+    THROW_CHECK_LT(pair_and_edges.first.second, models.size());
+    if (models[pair_and_edges.first.first] &&
+        models[pair_and_edges.first.second]) {
+      pairs.push_back(&pair_and_edges);
+    }
+  }
+  // The pairs run in parallel (after dense matching each can hold tens of
+  // thousands of correspondences, and RANSAC over them is slow).
+  std::vector<PairOutcome> outcomes(pairs.size());
+  {
+    ThreadPool thread_pool(
+        std::max(1,
+                 std::min(static_cast<int>(pairs.size()),
+                          GetEffectiveNumThreads(num_threads))));
+    for (size_t i = 0; i < pairs.size(); ++i) {
+      thread_pool.AddTask([&, i]() {
+        const int community1 = pairs[i]->first.first;
+        const int community2 = pairs[i]->first.second;
+        outcomes[i] = EstimatePairSimilarity(database,
+                                             &database_mutex,
+                                             is_verified_pair,
+                                             is_compared_pair,
+                                             community1,
+                                             community2,
+                                             *models[community1],
+                                             *models[community2],
+                                             pairs[i]->second,
+                                             pairwise_options,
+                                             covisibility_options);
+      });
+    }
+    thread_pool.Wait();
+  }
+
+  // Logged and gathered in the order of the pairs, whichever finished first.
+  CommunitySimilarities result;
+  for (PairOutcome& outcome : outcomes) {
+    LOG(INFO) << outcome.log;
+    result.false_pairs.insert(outcome.false_pairs.begin(),
+                              outcome.false_pairs.end());
+    for (RejectedSimilarity& rejected : outcome.rejected) {
+      result.rejected_similarities.push_back(std::move(rejected));
+    }
+    if (outcome.has_similarity) {
+      result.similarities.push_back(std::move(outcome.similarity));
+    }
+  }
+  return result;
+}
+
+}  // namespace colmap

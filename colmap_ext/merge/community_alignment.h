@@ -1,0 +1,82 @@
+// Pairwise similarities between the models of connected communities.
+//
+// CSfM (Cui et al., ICIP 2017), section 3: "given the co-visible 3D points
+// between a pair of connected communities, RANSAC is used to estimate a 3D
+// similarity transformation". Two communities are connected where the view
+// graph has edges between their images (cross edges). Their co-visible
+// points come from the verified matches of those edges and from the images
+// both models registered (image_overlap): see pairwise_similarity.h.
+//
+// Every similarity is checked against the image pairs the matcher verified
+// (covisibility_check.h); a rejected one gives way to the next estimated
+// from its outliers, up to PairwiseSimilarityOptions::max_num_hypotheses.
+// The cross pairs whose matches mostly supported rejected transforms (e.g.
+// matches between two identical facades) are reported as false pairs: the
+// merged model's refinement must not re-introduce them as tracks. The
+// rejected transforms are reported too, each with its pairs, so that the
+// merge can confirm one that a cycle of other links places alike
+// (link_confirmation.h).
+
+#pragma once
+
+#include "colmap_ext/partition/view_graph.h"
+#include "colmap_ext/merge/covisibility_check.h"
+#include "colmap_ext/merge/pairwise_similarity.h"
+
+#include "colmap/scene/database.h"
+#include "colmap/scene/reconstruction.h"
+
+#include <map>
+#include <memory>
+#include <unordered_map>
+#include <unordered_set>
+#include <vector>
+
+namespace colmap {
+
+// View-graph edges between communities, by community pair (the smaller id
+// first), each as the pair of its images in that order.
+using CrossEdges =
+    std::map<std::pair<int, int>, std::vector<std::pair<image_t, image_t>>>;
+
+// Images without a community are left out.
+CrossEdges GroupCrossEdges(
+    const ViewGraph& view_graph,
+    const std::unordered_map<image_t, int>& community_of_image);
+
+// A transform that the co-visibility check rejected.
+struct RejectedSimilarity {
+  // The communities, the transform and its inliers (the shared images are
+  // not checked for it).
+  RelativeSimilarity similarity;
+  // The cross pairs whose matches mostly support it.
+  std::vector<image_pair_t> pairs;
+  // The check that rejected it.
+  CovisibilityCheck check;
+};
+
+struct CommunitySimilarities {
+  // One per community pair with a usable similarity (with its inliers'
+  // point ids).
+  std::vector<RelativeSimilarity> similarities;
+  // Cross pairs whose matches mostly support rejected transforms.
+  std::unordered_set<image_pair_t> false_pairs;
+  // The rejected transforms.
+  std::vector<RejectedSimilarity> rejected_similarities;
+};
+
+// The similarities of every pair of communities that cross edges join and
+// both of which have a model (models[c] may be null). The cross edges'
+// matches are read from the database. The pairs are estimated on
+// `num_threads` threads (-1: as many as the machine has), each with a random
+// seed of its own: the result does not depend on the number of threads.
+CommunitySimilarities EstimateCommunitySimilarities(
+    const Database& database,
+    const ViewGraph& view_graph,
+    const CrossEdges& cross_edges,
+    const std::vector<std::shared_ptr<const Reconstruction>>& models,
+    const PairwiseSimilarityOptions& pairwise_options,
+    const CovisibilityCheckOptions& covisibility_options,
+    int num_threads = -1);
+
+}  // namespace colmap

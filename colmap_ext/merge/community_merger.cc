@@ -1,0 +1,700 @@
+#include "colmap_ext/merge/community_merger.h"
+
+#include "colmap_ext/partition/view_graph.h"
+#include "colmap_ext/reconstruction/filtered_database_cache.h"
+#include "colmap_ext/merge/community_alignment.h"
+#include "colmap_ext/merge/global_refinement.h"
+#include "colmap_ext/merge/link_confirmation.h"
+#include "colmap_ext/merge/model_join.h"
+#include "colmap_ext/merge/part_offers.h"
+#include "colmap_ext/util/process_memory.h"
+
+#include "colmap/math/random.h"
+#include "colmap/scene/database.h"
+#include "colmap/scene/database_cache.h"
+#include "colmap/util/logging.h"
+#include "colmap/util/misc.h"
+#include "colmap/util/string.h"
+#include "colmap/util/timer.h"
+#include "colmap/util/types.h"
+
+#include <algorithm>
+#include <map>
+
+namespace colmap {
+namespace {
+
+using Models = std::vector<std::shared_ptr<Reconstruction>>;
+
+// Where the memory stands after a step (for a long run's log).
+void LogMemory(const std::string& step) {
+  LOG(INFO) << "Memory after " << step << ": "
+            << ProcessMemoryToString(ReadProcessMemory());
+}
+
+// The own images of every community, by the plan.
+CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
+                                       const CommunityPlan& plan) {
+  std::unordered_map<std::string, image_t> image_of_name;
+  for (size_t vertex = 0; vertex < view_graph.NumVertices(); ++vertex) {
+    image_of_name.emplace(view_graph.ImageNames()[vertex],
+                          view_graph.ImageIds()[vertex]);
+  }
+  CommunityImages groups;
+  groups.own_image_ids.resize(plan.NumCommunities());
+  for (int c = 0; c < plan.NumCommunities(); ++c) {
+    for (const std::string& name : plan.communities[c].own_image_names) {
+      const image_t image_id = image_of_name.at(name);
+      groups.own_image_ids[c].insert(image_id);
+      groups.name_of_image.emplace(image_id, name);
+      groups.community_of_image.emplace(image_id, c);
+    }
+  }
+  return groups;
+}
+
+// Community `record.community_id`'s other models, as its stage wrote them
+// into `workspace` (largest first), each become an extra community if they
+// registered at least `min_model_size` of the community's own images that
+// no larger model of it taking part did. The extra community, numbered after
+// those in `models`, owns those images (the community keeps the others):
+// its shape is the mapper's, joined by a similarity as any community's,
+// instead of its images being registered anew one by one into the merged
+// model. Its report and origin are added to `result`.
+void AddExtraCommunities(const CommunityWorkspace& workspace,
+                         const CommunityRecord& record,
+                         const int min_model_size,
+                         CommunityImages* communities,
+                         Models* models,
+                         std::vector<std::string>* model_paths,
+                         CommunityMergerResult* result) {
+  const int c = record.community_id;
+  const std::vector<image_t> reg_image_ids = (*models)[c]->RegImageIds();
+  std::unordered_set<image_t> taken_image_ids(reg_image_ids.begin(),
+                                              reg_image_ids.end());
+  for (int index = 1; index <= record.num_other_models; ++index) {
+    auto other_model = std::make_shared<Reconstruction>();
+    const std::string path = workspace.CommunityOtherModelPath(c, index);
+    other_model->Read(path);
+    const std::vector<image_t> other_reg_image_ids = other_model->RegImageIds();
+    std::unordered_set<image_t> owned_image_ids;
+    for (const image_t image_id : other_reg_image_ids) {
+      if (communities->own_image_ids[c].count(image_id) > 0 &&
+          taken_image_ids.count(image_id) == 0) {
+        owned_image_ids.insert(image_id);
+      }
+    }
+    if (static_cast<int>(owned_image_ids.size()) < min_model_size) {
+      LOG(INFO) << StringPrintf(
+          "Community %d's model %d of %d holds %d of its own images that no "
+          "larger model of it holds: too few to take part",
+          c,
+          index + 1,
+          record.num_models,
+          static_cast<int>(owned_image_ids.size()));
+      continue;
+    }
+    taken_image_ids.insert(other_reg_image_ids.begin(),
+                           other_reg_image_ids.end());
+    const int extra = static_cast<int>(models->size());
+    LOG(INFO) << StringPrintf(
+        "Community %d's model %d of %d (%d images, %d of its own that no "
+        "larger model of it holds) takes part as community %d",
+        c,
+        index + 1,
+        record.num_models,
+        static_cast<int>(other_model->NumRegImages()),
+        static_cast<int>(owned_image_ids.size()),
+        extra);
+    for (const image_t image_id : owned_image_ids) {
+      communities->own_image_ids[c].erase(image_id);
+      communities->community_of_image[image_id] = extra;
+    }
+    communities->own_image_ids.push_back(std::move(owned_image_ids));
+    CommunityModelReport report = result->community_reports[c];
+    report.num_registered = static_cast<int>(other_model->NumRegImages());
+    report.model_index = index + 1;
+    result->community_reports.push_back(report);
+    result->extra_community_origins.push_back(c);
+    models->push_back(std::move(other_model));
+    model_paths->push_back(path);
+  }
+}
+
+// The images of `image_ids` that are not in `taken_image_ids`.
+template <typename ImageIds>
+std::unordered_set<image_t> ImagesNotTaken(
+    const ImageIds& image_ids,
+    const std::unordered_set<image_t>& taken_image_ids) {
+  std::unordered_set<image_t> left_image_ids;
+  for (const image_t image_id : image_ids) {
+    if (taken_image_ids.count(image_id) == 0) {
+      left_image_ids.insert(image_id);
+    }
+  }
+  return left_image_ids;
+}
+
+}  // namespace
+
+bool CommunityMergerOptions::Check() const {
+  CHECK_OPTION_GT(min_num_matches, 0);
+  CHECK_OPTION(pairwise_similarity.Check());
+  CHECK_OPTION(covisibility_check.Check());
+  CHECK_OPTION_GE(rejected_link_max_drift_factor, 1.0);
+  CHECK_OPTION(similarity_averaging.Check());
+  CHECK_OPTION(incremental_options.Check());
+  return true;
+}
+
+CommunityMerger::CommunityMerger(const CommunityMergerOptions& options,
+                               const CommunityPlan& plan,
+                               const CommunityWorkspace& workspace)
+    : options_(options), plan_(plan), workspace_(workspace) {
+  THROW_CHECK(options_.Check());
+}
+
+void CommunityMerger::EstimateSimilarities() {
+
+  // One connection for the view graph and the cross edges' matches.
+  const std::shared_ptr<Database> database =
+      Database::Open(options_.database_path);
+  view_graph_ = std::make_unique<ViewGraph>(ViewGraph::Read(
+      *database, options_.min_num_matches, options_.image_names));
+  result_.num_view_graph_images = static_cast<int>(view_graph_->NumVertices());
+  result_.num_view_graph_edges = static_cast<int>(view_graph_->NumEdges());
+  communities_ = GroupImagesByCommunity(*view_graph_, plan_);
+  result_.community_of_image = communities_.community_of_image;
+
+  // The communities, as their stage left them on disk: the plan's, then the
+  // extra ones.
+  ReadCommunityModels();
+  LogMemory("reading the community models");
+
+  cross_edges_ = GroupCrossEdges(*view_graph_, communities_.community_of_image);
+  result_.num_community_pairs = static_cast<int>(cross_edges_.size());
+  similarities_ = EstimateCommunitySimilarities(
+      *database,
+      *view_graph_,
+      cross_edges_,
+      std::vector<std::shared_ptr<const Reconstruction>>(models_.begin(),
+                                                         models_.end()),
+      options_.pairwise_similarity,
+      options_.covisibility_check,
+      options_.incremental_options.num_threads);
+  result_.num_estimated_similarities =
+      static_cast<int>(similarities_.similarities.size());
+}
+
+// The communities' models as their stage left them in the workspace (none
+// for a community that registered nothing), the plan's first, then, with
+// `merge_other_models`, the extra communities (AddExtraCommunities), with
+// their paths and reports.
+void CommunityMerger::ReadCommunityModels() {
+  const int num_plan_communities = plan_.NumCommunities();
+  models_.assign(num_plan_communities, nullptr);
+  model_paths_.clear();
+  std::vector<CommunityRecord> records;
+  result_.community_reports.assign(num_plan_communities,
+                                   CommunityModelReport());
+  for (int c = 0; c < num_plan_communities; ++c) {
+    records.push_back(CommunityRecordFromText(
+        ReadTextFile(workspace_.CommunityRecordPath(c))));
+    const CommunityRecord& record = records.back();
+    CommunityModelReport& report = result_.community_reports[c];
+    report.num_registered = record.num_registered;
+    report.num_models = record.num_models;
+    model_paths_.push_back(workspace_.CommunityModelPath(c));
+    if (record.num_registered > 0) {
+      models_[c] = std::make_shared<Reconstruction>();
+      models_[c]->Read(model_paths_.back());
+    }
+  }
+  result_.extra_community_origins.clear();
+  for (int c = 0; c < num_plan_communities; ++c) {
+    if (models_[c] && options_.merge_other_models) {
+      AddExtraCommunities(workspace_,
+                          records[c],
+                          options_.incremental_options.min_model_size,
+                          &communities_,
+                          &models_,
+                          &model_paths_,
+                          &result_);
+    }
+  }
+}
+
+void CommunityMerger::AverageSimilarities() {
+  const int num_communities = static_cast<int>(models_.size());
+  std::vector<AveragedCommunity> averaged_communities(num_communities);
+  for (int c = 0; c < num_communities; ++c) {
+    averaged_communities[c].num_images =
+        result_.community_reports[c].num_registered;
+  }
+  const std::vector<RelativeSimilarity>& similarities =
+      similarities_.similarities;
+  averaging_ = colmap::AverageSimilarities(
+      averaged_communities, similarities, options_.similarity_averaging);
+  result_.community_excluded = averaging_.excluded;
+  result_.num_kept_similarities = 0;
+  for (size_t e = 0; e < similarities.size(); ++e) {
+    const auto& report = averaging_.edges[e];
+    result_.num_kept_similarities += report.kept ? 1 : 0;
+    LOG(INFO) << StringPrintf(
+        "Communities %d-%d: displacement %.4f (rotation %.3f deg, scale "
+        "%.4f) -> %s",
+        similarities[e].community1,
+        similarities[e].community2,
+        report.relative_displacement,
+        report.rotation_residual_deg,
+        report.log_scale_residual,
+        report.kept           ? "kept"
+        : report.contradicted ? "dropped before the averaging (the images "
+                                "both models registered contradict it)"
+        : report.community_left
+            ? "dropped (one of its communities left the merge)"
+        : report.unconfirmed
+            ? "dropped (on no cycle, and the images both "
+              "models registered do not confirm it)"
+            : "dropped (the displacement of the averaging that dropped it, "
+              "with it in)");
+  }
+
+  false_pairs_ =
+      options_.confirm_rejected_links
+          ? ConfirmRejectedLinks(
+                similarities_,
+                averaging_,
+                options_.similarity_averaging.max_relative_displacement,
+                options_.rejected_link_max_drift_factor)
+          : similarities_.false_pairs;
+  if (!false_pairs_.empty()) {
+    LOG(INFO) << StringPrintf(
+        "%d image pairs between communities support only rejected "
+        "transforms: the merged models leave them out.",
+        static_cast<int>(false_pairs_.size()));
+  }
+  SetAsideExcludedCommunities();
+}
+
+// Communities that the averaging sent out of the merge lose their model
+// here and are set aside: their images are offered to the merged models,
+// and they keep the images no merged model registers
+// (RegisterRemainingImagesOfParts).
+void CommunityMerger::SetAsideExcludedCommunities() {
+  for (int c = 0; c < static_cast<int>(models_.size()); ++c) {
+    if (!averaging_.excluded[c]) {
+      continue;
+    }
+    LOG(WARNING) << StringPrintf(
+        "Community %d leaves the merge: its similarities disagree with the "
+        "other communities' and it is small. Its images are offered to the "
+        "merged model.",
+        c);
+    set_aside_communities_.push_back(c);
+    models_[c].reset();
+  }
+}
+
+std::shared_ptr<Reconstruction> CommunityMerger::LeftModel(
+    const int c,
+    std::shared_ptr<Reconstruction> model,
+    const std::unordered_set<image_t>& taken_image_ids) const {
+  if (!model) {
+    model = std::make_shared<Reconstruction>();
+    model->Read(model_paths_[c]);
+  }
+  return RestrictToImages(
+      ImagesNotTaken(communities_.own_image_ids[c], taken_image_ids),
+      std::move(model));
+}
+
+void CommunityMerger::KeepModel(
+    std::shared_ptr<Reconstruction> model,
+    std::unordered_set<image_t>* registered_image_ids) {
+  const std::vector<image_t> reg_image_ids = model->RegImageIds();
+  registered_image_ids->insert(reg_image_ids.begin(), reg_image_ids.end());
+  result_.models.push_back(std::move(model));
+}
+
+void CommunityMerger::KeepSetAsideCommunities(
+    std::unordered_set<image_t>* registered_image_ids) {
+  // A community that left the merge keeps the images nobody registered as
+  // a model of its own, if there are as many as the incremental mapper
+  // keeps in a model (Mapper.min_model_size): it was small.
+  for (const int c : set_aside_communities_) {
+    std::shared_ptr<Reconstruction> model =
+        LeftModel(c, /*model=*/nullptr, *registered_image_ids);
+    if (static_cast<int>(model->NumRegImages()) >=
+        options_.incremental_options.min_model_size) {
+      LOG(INFO) << StringPrintf(
+          "Community %d left the merge: %d of its images that no merged model "
+          "registered keep its model, as a model of its own",
+          c,
+          static_cast<int>(model->NumRegImages()));
+      KeepModel(std::move(model), registered_image_ids);
+    }
+  }
+}
+
+void CommunityMerger::Solve() {
+  THROW_CHECK(!solved_) << "Solve() runs once";
+  solved_ = true;
+  // The merge gives the same model from the same community models, whatever
+  // ran them and whichever thread merges.
+  SetPRNGSeed(kDefaultPRNGSeed);
+  Timer timer;
+  const auto end_stage = [&](const std::string& name) {
+    result_.stage_seconds.emplace_back(name, timer.ElapsedSeconds());
+    LOG(INFO) << StringPrintf("%s done in %.3f seconds (%s)",
+                              name.c_str(),
+                              timer.ElapsedSeconds(),
+                              ProcessMemoryToString(ReadProcessMemory()).c_str());
+  };
+
+  LOG_HEADING1("Merge 1/4: pairwise similarities between communities");
+  timer.Start();
+  EstimateSimilarities();
+  end_stage("Pairwise similarities");
+
+  LOG_HEADING1("Merge 2/4: similarity averaging");
+  timer.Restart();
+  AverageSimilarities();
+  end_stage("Similarity averaging");
+
+  LOG_HEADING1("Merge 3/4: global refinement of every part");
+  timer.Restart();
+  JoinAndRefineParts();
+  end_stage("Global refinement");
+
+  LOG_HEADING1("Merge 4/4: registration of the remaining images");
+  timer.Restart();
+  RegisterRemainingImagesOfParts();
+  end_stage("Registration");
+}
+
+// Every part of the averaging, largest first as the averaging numbers
+// them, becomes one model: a part of one community its model (its own
+// images), a part of several the communities joined in the averaged frame
+// and refined over all their images. Where the join or its refinement
+// fails, nothing is lost: the part's communities become models of their
+// own. The communities' models are consumed.
+void CommunityMerger::JoinAndRefineParts() {
+  const int num_communities = static_cast<int>(models_.size());
+  std::vector<bool> has_model(num_communities);
+  for (int c = 0; c < num_communities; ++c) {
+    has_model[c] = models_[c] != nullptr;
+  }
+  const PartOffers offers = PlanPartOffers(
+      averaging_.part_of_community, has_model, cross_edges_);
+  for (int part = 0; part < averaging_.NumParts(); ++part) {
+    std::vector<int> part_communities;
+    for (int c = 0; c < num_communities; ++c) {
+      if (models_[c] && averaging_.part_of_community[c] == part) {
+        part_communities.push_back(c);
+      }
+    }
+    if (part_communities.empty()) {
+      continue;
+    }
+    PartModel part_model;
+    part_model.communities = part_communities;
+    const auto offered = offers.image_communities_of_part.find(part);
+    if (offered != offers.image_communities_of_part.end()) {
+      part_model.offered_communities = offered->second;
+    }
+    if (part_communities.size() == 1) {
+      const int c = part_communities[0];
+      part_model.model = LeftModel(c, std::move(models_[c]), {});
+      part_models_.push_back(std::move(part_model));
+      continue;
+    }
+    try {
+      part_model.model = JoinPart(part_communities);
+      part_model.joined = true;
+      if (!options_.skip_global_refinement) {
+        RefinePart(part_model.model);
+      }
+      part_models_.push_back(std::move(part_model));
+    } catch (const std::exception& error) {
+      LOG(ERROR) << "Merging communities failed: " << error.what()
+                 << "; each of them is written as a model of its own.";
+      for (const int c : part_communities) {
+        PartModel community_model;
+        community_model.communities = {c};
+        community_model.model = LeftModel(c, /*model=*/nullptr, {});
+        part_models_.push_back(std::move(community_model));
+      }
+    }
+    for (const int c : part_communities) {
+      models_[c].reset();
+    }
+    ReleaseFreedMemory();
+  }
+}
+
+// The part's joined model refined on the correspondences of its registered
+// images (global_refinement.h).
+void CommunityMerger::RefinePart(
+    const std::shared_ptr<Reconstruction>& merged) const {
+  std::unordered_set<std::string> image_names;
+  for (const image_t image_id : merged->RegImageIds()) {
+    image_names.insert(merged->Image(image_id).Name());
+  }
+  const double initial_error = merged->ComputeMeanReprojectionError();
+  THROW_CHECK(RefineMergedModel(
+      MergedModelRefinementOptions(options_.incremental_options),
+      LoadPartCorrespondences(image_names, *merged),
+      merged))
+      << "the bundle adjustment of the merged model failed";
+  merged->TearDown();
+  merged->UpdatePoint3DErrors();
+  LOG(INFO) << StringPrintf(
+      "Refined model: %d images, %d points, mean reprojection error %.3f px "
+      "(%.3f px joined)",
+      static_cast<int>(merged->NumRegImages()),
+      static_cast<int>(merged->NumPoints3D()),
+      merged->ComputeMeanReprojectionError(),
+      initial_error);
+}
+
+// Largest part first, each model loses the images an earlier one holds,
+// then registers the images of its communities that it does not hold and
+// those offered to it (part_offers.h), and is kept where it holds at least
+// two images. A part of one community is registered into only where images
+// are offered to it: its community's mapper tried its own images already.
+// Then the set-aside communities keep, as models of their own, the images
+// no model registered (at least Mapper.min_model_size of them).
+void CommunityMerger::RegisterRemainingImagesOfParts() {
+  std::unordered_set<image_t> registered_image_ids;
+  for (PartModel& part_model : part_models_) {
+    std::unordered_set<image_t> kept_image_ids;
+    for (const image_t image_id : part_model.model->RegImageIds()) {
+      if (registered_image_ids.count(image_id) == 0) {
+        kept_image_ids.insert(image_id);
+      }
+    }
+    std::shared_ptr<Reconstruction> model =
+        RestrictToImages(kept_image_ids, std::move(part_model.model));
+    if (model->NumRegImages() < 2) {
+      LOG(WARNING) << "A part's model is left with fewer than 2 images that "
+                      "no larger model holds: no model for it.";
+      continue;
+    }
+    std::unordered_set<std::string> remaining_image_names;
+    if (!options_.skip_registration &&
+        (part_model.joined || !part_model.offered_communities.empty())) {
+      std::vector<int> communities = part_model.communities;
+      communities.insert(communities.end(),
+                         part_model.offered_communities.begin(),
+                         part_model.offered_communities.end());
+      for (const int c : communities) {
+        for (const image_t image_id : communities_.own_image_ids[c]) {
+          if (registered_image_ids.count(image_id) == 0 &&
+              !(model->ExistsImage(image_id) &&
+                model->Image(image_id).HasPose())) {
+            remaining_image_names.insert(communities_.name_of_image.at(image_id));
+          }
+        }
+      }
+    }
+    bool changed = part_model.joined;
+    if (!remaining_image_names.empty()) {
+      changed = RegisterIntoPart(remaining_image_names, &model) || changed;
+    }
+    if (changed && options_.incremental_options.extract_colors) {
+      model->ExtractColorsForAllImages(options_.image_path,
+                                       options_.incremental_options.num_threads);
+    }
+    KeepModel(std::move(model), &registered_image_ids);
+  }
+  part_models_.clear();
+  KeepSetAsideCommunities(&registered_image_ids);
+  std::stable_sort(result_.models.begin(),
+                   result_.models.end(),
+                   [](const std::shared_ptr<Reconstruction>& a,
+                      const std::shared_ptr<Reconstruction>& b) {
+                     return a->NumRegImages() > b->NumRegImages();
+                   });
+}
+
+// COLMAP's incremental mapper continues `*model` with `image_names`
+// (global_refinement.h). Where that fails, the model stays as it was.
+// Whether the model changed.
+bool CommunityMerger::RegisterIntoPart(
+    const std::unordered_set<std::string>& image_names,
+    std::shared_ptr<Reconstruction>* model) const {
+  LOG(INFO) << StringPrintf(
+      "Registering %d images into a model of %d images",
+      static_cast<int>(image_names.size()),
+      static_cast<int>((*model)->NumRegImages()));
+  auto registered = std::make_shared<Reconstruction>(**model);
+  try {
+    std::unordered_set<std::string> cache_image_names = image_names;
+    for (const image_t image_id : registered->RegImageIds()) {
+      cache_image_names.insert(registered->Image(image_id).Name());
+    }
+    auto mapper_options =
+        std::make_shared<IncrementalPipelineOptions>(options_.incremental_options);
+    mapper_options->extract_colors = false;
+    const int num_new = RegisterRemainingImages(
+        mapper_options,
+        LoadPartCorrespondences(cache_image_names, *registered),
+        registered);
+    LOG(INFO) << StringPrintf("%d images newly registered: %d in the model",
+                              num_new,
+                              static_cast<int>(registered->NumRegImages()));
+  } catch (const std::exception& error) {
+    LOG(ERROR) << "Registering the remaining images failed: " << error.what()
+               << "; the model is kept without them.";
+    return false;
+  }
+  *model = std::move(registered);
+  return true;
+}
+
+// An image left without any pair (all contradicting the merge) cannot be
+// refined: it stays out. (The view graph tells, before the models are
+// joined and released, which images the correspondences will hold.)
+void CommunityMerger::LeaveOutUnpairedImages(
+    const std::unordered_set<std::string>& part_image_names,
+    std::vector<std::unordered_set<image_t>>* owned_image_ids) const {
+  std::unordered_set<image_t> connected_image_ids;
+  for (const ViewGraph::Edge& edge : view_graph_->Edges()) {
+    const image_t image_id1 = view_graph_->ImageIds()[edge.vertex1];
+    const image_t image_id2 = view_graph_->ImageIds()[edge.vertex2];
+    if (part_image_names.count(view_graph_->ImageNames()[edge.vertex1]) &&
+        part_image_names.count(view_graph_->ImageNames()[edge.vertex2]) &&
+        !false_pairs_.count(ImagePairToPairId(image_id1, image_id2))) {
+      connected_image_ids.insert(image_id1);
+      connected_image_ids.insert(image_id2);
+    }
+  }
+  for (std::unordered_set<image_t>& image_ids : *owned_image_ids) {
+    for (auto it = image_ids.begin(); it != image_ids.end();) {
+      if (connected_image_ids.count(*it)) {
+        ++it;
+      } else {
+        LOG(WARNING) << "Image " << communities_.name_of_image.at(*it)
+                     << " has no image pair left in the merged model; it is "
+                        "left out.";
+        it = image_ids.erase(it);
+      }
+    }
+  }
+}
+
+// The pairs of joined points (merged ids) that the kept similarities of
+// the part found to correspond, `point3D_ids` mapping each community's
+// point ids (by its index in the part) to the merged model's.
+std::vector<std::pair<point3D_t, point3D_t>>
+CommunityMerger::PartCorrespondingPoints(
+    const std::vector<int>& part_communities,
+    const std::map<int, size_t>& index_in_part,
+    const std::vector<std::unordered_map<point3D_t, point3D_t>>& point3D_ids)
+    const {
+  std::vector<std::pair<point3D_t, point3D_t>> corresponding_points;
+  for (size_t e = 0; e < similarities_.similarities.size(); ++e) {
+    if (!averaging_.edges[e].kept ||
+        averaging_
+                .part_of_community[similarities_.similarities[e].community1] !=
+            averaging_.part_of_community[part_communities[0]]) {
+      continue;
+    }
+    const auto& ids1 =
+        point3D_ids[index_in_part.at(similarities_.similarities[e].community1)];
+    const auto& ids2 =
+        point3D_ids[index_in_part.at(similarities_.similarities[e].community2)];
+    for (const auto& pair : similarities_.similarities[e].point3D_ids) {
+      const auto it1 = ids1.find(pair.first);
+      const auto it2 = ids2.find(pair.second);
+      if (it1 != ids1.end() && it2 != ids2.end()) {
+        corresponding_points.emplace_back(it1->second, it2->second);
+      }
+    }
+  }
+  return corresponding_points;
+}
+
+// The correspondences of `image_names`, without the false pairs; every
+// image registered in `model` must have some.
+std::shared_ptr<DatabaseCache> CommunityMerger::LoadPartCorrespondences(
+    const std::unordered_set<std::string>& image_names,
+    const Reconstruction& model) const {
+  DatabaseCache::Options database_cache_options;
+  database_cache_options.min_num_matches =
+      static_cast<size_t>(options_.min_num_matches);
+  database_cache_options.ignore_watermarks =
+      options_.incremental_options.ignore_watermarks;
+  database_cache_options.image_names = image_names;
+  std::shared_ptr<DatabaseCache> database_cache;
+  {
+    const std::shared_ptr<Database> database =
+        Database::Open(options_.database_path);
+    database_cache = CreateFilteredDatabaseCache(
+        *database,
+        database_cache_options,
+        [this](const image_t image_id1, const image_t image_id2) {
+          return false_pairs_.count(ImagePairToPairId(image_id1, image_id2)) ==
+                 0;
+        });
+  }
+  // Building the correspondence graph grows a vector per keypoint and
+  // then flattens them; the freed vectors would stay resident through the
+  // refinement (see ReleaseFreedMemory).
+  ReleaseFreedMemory();
+  for (const image_t image_id : model.RegImageIds()) {
+    THROW_CHECK(database_cache->ExistsImage(image_id))
+        << "image " << model.Image(image_id).Name()
+        << " has no correspondences";
+  }
+  LogMemory("loading the correspondences");
+  return database_cache;
+}
+
+// Joins the communities of one part (connected by kept similarities) into
+// one model in the averaged frame, each with its own images, and merges the
+// points the part's similarities found to correspond.
+std::shared_ptr<Reconstruction> CommunityMerger::JoinPart(
+    const std::vector<int>& part_communities) {
+  LOG(INFO) << "Joining communities" << [&] {
+    std::string ids;
+    for (const int c : part_communities) ids += " " + std::to_string(c);
+    return ids;
+  }();
+  std::vector<Reconstruction*> part_models;
+  std::vector<Sim3d> world_from_community;
+  std::vector<std::unordered_set<image_t>> owned_image_ids;
+  std::unordered_set<std::string> part_image_names;
+  std::map<int, size_t> index_in_part;
+  for (const int c : part_communities) {
+    index_in_part.emplace(c, part_models.size());
+    part_models.push_back(models_[c].get());
+    world_from_community.push_back(averaging_.world_from_community[c]);
+    owned_image_ids.push_back(communities_.own_image_ids[c]);
+    for (const image_t image_id : owned_image_ids.back()) {
+      part_image_names.insert(communities_.name_of_image.at(image_id));
+    }
+  }
+  LeaveOutUnpairedImages(part_image_names, &owned_image_ids);
+  auto merged = std::make_shared<Reconstruction>();
+  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
+  JoinReconstructions(part_models,
+                      world_from_community,
+                      owned_image_ids,
+                      merged.get(),
+                      &point3D_ids);
+  const size_t num_merged_points = MergeCorrespondingPoints(
+      PartCorrespondingPoints(part_communities, index_in_part, point3D_ids),
+      merged.get());
+  merged->UpdatePoint3DErrors();
+  LOG(INFO) << StringPrintf(
+      "Joined %d images and %d points; merged %d corresponding points",
+      static_cast<int>(merged->NumRegImages()),
+      static_cast<int>(merged->NumPoints3D()),
+      static_cast<int>(num_merged_points));
+  LogMemory("joining the models");
+  return merged;
+}
+
+}  // namespace colmap

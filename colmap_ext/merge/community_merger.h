@@ -1,0 +1,253 @@
+// The merge stage of Community-based SfM: the community models of a plan,
+// as their stage wrote them, into one model per part in one frame.
+//
+// Cui, Shen, Gao and Hu, "CSfM: Community-based Structure from Motion",
+// ICIP 2017, sections 3.3-3.4, in the stages of a global SfM pipeline
+// (COLMAP 4.1.1's GlobalMapper::Solve):
+//   1. pairwise similarities: a Sim3 between every two communities that
+//      view-graph edges join, from their co-visible points by RANSAC,
+//      checked against which images were matched (community_alignment.h);
+//   2. similarity averaging: L1 scale, L1RA rotation and L1 translation
+//      averaging place every community, world_from_community; links the
+//      averaging contradicts leave, and the communities joined by the kept
+//      ones form a part (similarity_averaging.h);
+//   3. global refinement: each part's communities transformed and joined,
+//      their corresponding points merged, the joined model adjusted under a
+//      robust loss and triangulated anew over all its images
+//      (global_refinement.h);
+//   4. registration: the images no community placed (and those of smaller
+//      parts that no link joins to it) registered by COLMAP's incremental
+//      mapper, which continues the merged model, and the last refinement.
+// A part that no link joins stays a model of its own, as COLMAP's
+// hierarchical mapper leaves it; no image is written in two models.
+#pragma once
+
+#include "colmap_ext/partition/view_graph.h"
+#include "colmap_ext/workflow/community_workspace.h"
+#include "colmap_ext/merge/community_alignment.h"
+#include "colmap_ext/merge/covisibility_check.h"
+#include "colmap_ext/merge/pairwise_similarity.h"
+#include "colmap_ext/merge/similarity_averaging.h"
+
+#include "colmap/controllers/incremental_pipeline.h"
+#include "colmap/scene/database_cache.h"
+#include "colmap/scene/reconstruction.h"
+
+#include <map>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+#include <vector>
+
+namespace colmap {
+
+// What the incremental mapper of a community produced, for the run's
+// summary (the merge judges a community by its links, not by these).
+struct CommunityModelReport {
+  // Registered images of the model that takes part in the merge (the
+  // largest; 0 if there is none).
+  int num_registered = 0;
+  // Models the mapper made.
+  int num_models = 0;
+  // Which of the mapper's models takes part: 1 for the largest, 2 for the
+  // second largest (an extra community), ...
+  int model_index = 1;
+};
+
+struct CommunityMergerOptions {
+  // The database the communities were reconstructed from (view graph,
+  // matches and correspondences).
+  std::string database_path;
+
+  // The image folder (only for the points' colours).
+  std::string image_path;
+
+  // Only these images (empty: every image of the database), as the plan's.
+  std::unordered_set<std::string> image_names;
+
+  // Minimum verified inlier matches of a view-graph edge.
+  int min_num_matches = 15;
+
+  // Where a community's mapper made several models, each other model that
+  // holds at least incremental_options.min_model_size of the community's
+  // own images (that no larger model of it holds) takes part in the merge
+  // as an extra community; false: only the largest does, and the
+  // registration registers the others' images one by one.
+  bool merge_other_models = true;
+
+  // Pairwise similarity estimation between connected communities.
+  PairwiseSimilarityOptions pairwise_similarity;
+
+  // The check that an alignment explains which images were matched.
+  CovisibilityCheckOptions covisibility_check;
+
+  // A similarity the co-visibility check rejected, between two communities
+  // that the averaging joins through other links, is confirmed where it
+  // lies within the averaging's displacement bound of that placement
+  // (link_confirmation.h): its image pairs then
+  // stay in the merged model and close the loop there. False: every rejected
+  // similarity's pairs are left out.
+  bool confirm_rejected_links = true;
+
+  // That bound grows with the drift the links between the two communities
+  // may have accumulated, as the square root of their effective resistance
+  // (the number of links on a path), at most by this factor.
+  double rejected_link_max_drift_factor = 1.5;
+
+  // Global similarity averaging and the links it keeps.
+  SimilarityAveragingOptions similarity_averaging;
+
+  // The incremental mapper's options (the user's --Mapper.*): the global
+  // refinement's intrinsics and threads, and the registration of the
+  // remaining images with its adjustments.
+  IncrementalPipelineOptions incremental_options;
+
+  // Stage 3 off: each part's joined model, its corresponding points merged,
+  // goes to the registration as the averaging placed it.
+  bool skip_global_refinement = false;
+  // Stage 4 off: the images no community registered stay unregistered, and
+  // the parts no link joins stay models of their own.
+  bool skip_registration = false;
+
+  bool Check() const;
+};
+
+// What the merge did and made.
+struct CommunityMergerResult {
+  // The merged models, largest first.
+  std::vector<std::shared_ptr<Reconstruction>> models;
+  // Per community of the merge (the plan's, then the extra communities:
+  // other models of a community's mapper): what its mapper produced, and
+  // whether it left the merge.
+  std::vector<CommunityModelReport> community_reports;
+  std::vector<bool> community_excluded;
+  // The plan's community each extra community comes from.
+  std::vector<int> extra_community_origins;
+  // The plan's community of every image of the view graph.
+  std::unordered_map<image_t, int> community_of_image;
+  // View graph of the merge.
+  int num_view_graph_images = 0;
+  int num_view_graph_edges = 0;
+  // Pairs of communities joined by view-graph edges, with a similarity,
+  // and kept by the averaging.
+  int num_community_pairs = 0;
+  int num_estimated_similarities = 0;
+  int num_kept_similarities = 0;
+  // The seconds of every stage, by name, in order.
+  std::vector<std::pair<std::string, double>> stage_seconds;
+};
+
+// The own images of every community: the plan's, then those of the extra
+// communities that the merge adds.
+struct CommunityImages {
+  std::vector<std::unordered_set<image_t>> own_image_ids;
+  std::unordered_map<image_t, std::string> name_of_image;
+  std::unordered_map<image_t, int> community_of_image;
+};
+
+// The merge, in its stages (see the top of this file):
+//
+//   CommunityMerger merger(options, plan, workspace);
+//   merger.Solve();
+//   const CommunityMergerResult& result = merger.Result();
+//
+// Every community of the plan must have its record in `workspace`. Solve()
+// throws where the database or a model cannot be read.
+class CommunityMerger {
+ public:
+  CommunityMerger(const CommunityMergerOptions& options,
+                  const CommunityPlan& plan,
+                  const CommunityWorkspace& workspace);
+
+  // Runs the stages once.
+  void Solve();
+
+  // What the merge did and made, once Solve() ran.
+  const CommunityMergerResult& Result() const { return result_; }
+
+ private:
+  // A part's model between the stages.
+  struct PartModel {
+    std::shared_ptr<Reconstruction> model;
+    // The part's communities, and those whose images are offered to it.
+    std::vector<int> communities;
+    std::vector<int> offered_communities;
+    // Whether the model joins several communities.
+    bool joined = false;
+  };
+
+  // Stage 1 (with the communities' models read) and stage 2.
+  void EstimateSimilarities();
+  void ReadCommunityModels();
+  void AverageSimilarities();
+  void SetAsideExcludedCommunities();
+  // Stage 3: every part's model.
+  void JoinAndRefineParts();
+  std::shared_ptr<Reconstruction> JoinPart(
+      const std::vector<int>& part_communities);
+  void RefinePart(const std::shared_ptr<Reconstruction>& merged) const;
+  // Stage 4: the remaining images registered into the parts' models, which
+  // are kept.
+  void RegisterRemainingImagesOfParts();
+  bool RegisterIntoPart(const std::unordered_set<std::string>& image_names,
+                        std::shared_ptr<Reconstruction>* model) const;
+
+  // Community c's model restricted to its own images that no model in
+  // `taken_image_ids` registered: `model` (its copy in memory), or as its
+  // stage wrote it if null.
+  std::shared_ptr<Reconstruction> LeftModel(
+      int c,
+      std::shared_ptr<Reconstruction> model,
+      const std::unordered_set<image_t>& taken_image_ids) const;
+  // Adds a model to the result and its images to `registered_image_ids`.
+  void KeepModel(std::shared_ptr<Reconstruction> model,
+                 std::unordered_set<image_t>* registered_image_ids);
+  // The set-aside communities' models of the images no model registered, of
+  // at least Mapper.min_model_size images, kept as models of their own.
+  void KeepSetAsideCommunities(
+      std::unordered_set<image_t>* registered_image_ids);
+  // JoinPart's steps: the images without a pair left out of the part, the
+  // joined points that correspond.
+  void LeaveOutUnpairedImages(
+      const std::unordered_set<std::string>& part_image_names,
+      std::vector<std::unordered_set<image_t>>* owned_image_ids) const;
+  std::vector<std::pair<point3D_t, point3D_t>> PartCorrespondingPoints(
+      const std::vector<int>& part_communities,
+      const std::map<int, size_t>& index_in_part,
+      const std::vector<std::unordered_map<point3D_t, point3D_t>>& point3D_ids)
+      const;
+  // The correspondences of `image_names`, without the false pairs.
+  std::shared_ptr<DatabaseCache> LoadPartCorrespondences(
+      const std::unordered_set<std::string>& image_names,
+      const Reconstruction& model) const;
+
+  const CommunityMergerOptions options_;
+  const CommunityPlan plan_;
+  const CommunityWorkspace workspace_;
+  bool solved_ = false;
+
+  // Stage 1: the view graph, the communities' images, models (null where a
+  // community has none or has been consumed) and their paths, the
+  // view-graph edges between communities and the similarities.
+  std::unique_ptr<ViewGraph> view_graph_;
+  CommunityImages communities_;
+  std::vector<std::shared_ptr<Reconstruction>> models_;
+  std::vector<std::string> model_paths_;
+  CrossEdges cross_edges_;
+  CommunitySimilarities similarities_;
+
+  // Stage 2: the placement and links kept, the image pairs the refinement
+  // leaves out, and the communities that left the merge (set aside).
+  SimilarityAveragingResult averaging_;
+  std::unordered_set<image_pair_t> false_pairs_;
+  std::vector<int> set_aside_communities_;
+
+  // Stage 3: the parts' models, largest part first.
+  std::vector<PartModel> part_models_;
+
+  CommunityMergerResult result_;
+};
+
+}  // namespace colmap

@@ -1,0 +1,51 @@
+// Refinement of a merged model over all its images, and registration of the
+// images that no community placed.
+//
+// The joined communities are each close to optimal, but where they meet
+// they are only as close as the averaged similarities put them, and their
+// tracks end at their borders. As GLOMAP refines the output of global
+// positioning (Pan et al., "Global Structure-from-Motion Revisited", ECCV
+// 2024; COLMAP 4.1.1's GlobalMapper), the merged model is first adjusted
+// under a robust (Huber) loss on the joined points, which pulls the
+// communities together, then triangulated anew over the whole
+// correspondence graph and refined again:
+//     min  sum_ij rho(|| pi(P_i, X_j) - x_ij ||^2).
+// The images left unregistered are then registered as COLMAP's incremental
+// mapper continues a model (IncrementalPipeline::ReconstructSubModel): one
+// by one, with local adjustments, and a last global refinement under the
+// user's --Mapper.* options.
+
+#pragma once
+
+#include "colmap/controllers/incremental_pipeline.h"
+#include "colmap/scene/database_cache.h"
+#include "colmap/scene/reconstruction.h"
+#include "colmap/sfm/global_mapper.h"
+
+#include <memory>
+
+namespace colmap {
+
+// The robust adjustment and the retriangulation are COLMAP's GlobalMapper's
+// (IterativeBundleAdjustment, IterativeRetriangulateAndRefine) with its
+// defaults; the intrinsics and rigs they refine follow --Mapper.ba_refine_*.
+GlobalMapperOptions MergedModelRefinementOptions(
+    const IncrementalPipelineOptions& mapper_options);
+
+// Refines `reconstruction` (its registered images, on `database_cache`'s
+// correspondences): robust adjustment on the joined points, then every point
+// triangulated anew and refined. Returns false where an adjustment failed.
+bool RefineMergedModel(const GlobalMapperOptions& options,
+                       std::shared_ptr<const DatabaseCache> database_cache,
+                       std::shared_ptr<Reconstruction> reconstruction);
+
+// Registers the images of `database_cache` that `reconstruction` has not
+// registered, as the incremental mapper continues a model, and refines the
+// result; the unregistered images are removed from it. Returns how many
+// more images it holds (fewer where the refinement filtered some).
+int RegisterRemainingImages(
+    std::shared_ptr<IncrementalPipelineOptions> mapper_options,
+    std::shared_ptr<DatabaseCache> database_cache,
+    std::shared_ptr<Reconstruction> reconstruction);
+
+}  // namespace colmap

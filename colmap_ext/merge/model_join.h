@@ -1,0 +1,62 @@
+// Joining community reconstructions into one model.
+//
+// CSfM (Cui et al., ICIP 2017), section 3.4: given the similarity
+// world_from_community of every community (similarity_averaging.h), its
+// cameras and points are transformed into the global frame,
+//     X_g = s_i R_i X + T_i,  R_g = R R_i^T,  C_g = s_i R_i C + T_i,
+// and joined. Here the join keeps every community's tracks, then merges the
+// 3D points that the pairwise similarities found to correspond (their
+// inliers), so that the final bundle adjustment couples the communities
+// (global_refinement.h).
+
+#pragma once
+
+#include "colmap/geometry/sim3.h"
+#include "colmap/scene/reconstruction.h"
+
+#include <memory>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+#include <vector>
+
+namespace colmap {
+
+// Transforms every reconstruction into the global frame and joins their
+// rigs, cameras, registered frames with their images, and points into
+// `merged` (which must be empty). Each image is taken from the one
+// reconstruction that owns it (`owned_image_ids`; an image registered by
+// several, as on community borders, is owned by one), with its whole frame
+// (a frame whose images several reconstructions own comes from the first of
+// them: a frame's images stay together); the other reconstructions'
+// observations in the frame's images are dropped, and points left without
+// observations too. A camera (rig) used by several reconstructions takes the
+// parameters of the one owning the most images (frames) with it. Ids of
+// rigs, cameras, frames and images are kept. `point3D_ids` receives, per
+// reconstruction, the new id of each of its points that was kept. The
+// reconstructions are transformed in place.
+void JoinReconstructions(
+    const std::vector<Reconstruction*>& reconstructions,
+    const std::vector<Sim3d>& world_from_reconstruction,
+    const std::vector<std::unordered_set<image_t>>& owned_image_ids,
+    Reconstruction* merged,
+    std::vector<std::unordered_map<point3D_t, point3D_t>>* point3D_ids);
+
+// Merges pairs of corresponding 3D points (ids of `reconstruction`) into
+// single tracks. A pair is skipped if one of its points was merged already
+// or if both are observed in a common image. Afterwards, points observed
+// fewer than twice are deleted. Returns the number of merges.
+size_t MergeCorrespondingPoints(
+    const std::vector<std::pair<point3D_t, point3D_t>>& point3D_pairs,
+    Reconstruction* reconstruction);
+
+// The reconstruction without the registered frames that have none of their
+// images in `image_ids` (e.g. a community model without the images it
+// borrowed from its neighbours), their observations, and the points left
+// with fewer than two observations. Returns `reconstruction` itself if all
+// its registered images are in `image_ids`, a new reconstruction otherwise.
+std::shared_ptr<Reconstruction> RestrictToImages(
+    const std::unordered_set<image_t>& image_ids,
+    std::shared_ptr<Reconstruction> reconstruction);
+
+}  // namespace colmap

@@ -1,0 +1,772 @@
+#include "colmap_ext/merge/similarity_averaging.h"
+
+#include "colmap_ext/merge/pairwise_similarity.h"
+#include "colmap_ext/util/option_check.h"
+#include "colmap_ext/util/union_find.h"
+
+#include "colmap/math/math.h"
+#include "colmap/optim/least_absolute_deviations.h"
+#include "colmap/util/logging.h"
+#include "colmap/util/string.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <unordered_set>
+
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+
+namespace colmap {
+namespace {
+
+// Solves x_i - x_j = b_e (dim rows per edge e = (i, j), weighted by
+// edge_weights[e]) over the nodes of one connected part, in L1 or least
+// squares, with x_reference = 0. `x` has dim entries per node of the part,
+// in the order of `nodes`.
+bool SolveDifferenceSystem(const std::vector<int>& nodes,
+                           const std::vector<std::pair<int, int>>& edges,
+                           const std::vector<double>& edge_weights,
+                           const int dim,
+                           const int reference,
+                           const Eigen::VectorXd& b,
+                           const bool least_squares,
+                           Eigen::VectorXd* x) {
+  std::map<int, int> column;  // node -> variable block, reference excluded
+  for (const int node : nodes) {
+    if (node != reference) {
+      const int index = static_cast<int>(column.size());
+      column.emplace(node, index);
+    }
+  }
+  x->setZero(dim * static_cast<int>(nodes.size()));
+  if (column.empty()) {
+    return true;
+  }
+
+  std::vector<Eigen::Triplet<double>> triplets;
+  for (size_t e = 0; e < edges.size(); ++e) {
+    for (int d = 0; d < dim; ++d) {
+      if (edges[e].first != reference) {
+        triplets.emplace_back(
+            dim * e + d, dim * column.at(edges[e].first) + d, edge_weights[e]);
+      }
+      if (edges[e].second != reference) {
+        triplets.emplace_back(dim * e + d,
+                              dim * column.at(edges[e].second) + d,
+                              -edge_weights[e]);
+      }
+    }
+  }
+  Eigen::SparseMatrix<double> A(dim * edges.size(), dim * column.size());
+  A.setFromTriplets(triplets.begin(), triplets.end());
+  Eigen::VectorXd weighted_b = b;
+  for (size_t e = 0; e < edges.size(); ++e) {
+    weighted_b.segment(dim * e, dim) *= edge_weights[e];
+  }
+
+  Eigen::VectorXd solution;
+  if (least_squares) {
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(A.transpose() *
+                                                              A);
+    if (solver.info() != Eigen::Success) {
+      return false;
+    }
+    solution = solver.solve(A.transpose() * weighted_b);
+  } else {
+    LeastAbsoluteDeviationSolver::Options l1_options;
+    l1_options.max_num_iterations = 20000;
+    l1_options.absolute_tolerance = 1e-12;
+    l1_options.relative_tolerance = 1e-10;
+    const LeastAbsoluteDeviationSolver solver(l1_options, A);
+    solution = Eigen::VectorXd::Zero(A.cols());
+    if (!solver.Solve(weighted_b, &solution)) {
+      return false;
+    }
+  }
+
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    if (nodes[k] != reference) {
+      x->segment(dim * k, dim) =
+          solution.segment(dim * column.at(nodes[k]), dim);
+    }
+  }
+  return true;
+}
+
+// The translation measurement T_i - T_j of an edge, given scales and
+// rotations, and the spread of its correspondences in the world frame.
+void TranslationMeasurement(const RelativeSimilarity& edge,
+                            const Sim3d& world_from_first,
+                            const Sim3d& world_from_second,
+                            Eigen::Vector3d* measurement,
+                            double* spread) {
+  std::vector<Eigen::Vector3d> world_points2(edge.points2.size());
+  std::vector<double> differences[3];
+  for (size_t k = 0; k < edge.points1.size(); ++k) {
+    world_points2[k] = world_from_second.scale() *
+                       (world_from_second.rotation() * edge.points2[k]);
+    const Eigen::Vector3d difference =
+        world_points2[k] - world_from_first.scale() *
+                               (world_from_first.rotation() * edge.points1[k]);
+    for (int d = 0; d < 3; ++d) {
+      differences[d].push_back(difference(d));
+    }
+  }
+  for (int d = 0; d < 3; ++d) {
+    std::nth_element(differences[d].begin(),
+                     differences[d].begin() + differences[d].size() / 2,
+                     differences[d].end());
+    (*measurement)(d) = differences[d][differences[d].size() / 2];
+  }
+  *spread = MedianDistanceToMedian(world_points2);
+}
+
+// Averages the similarities of one connected part in place. With
+// `translations_in_spreads`, every edge's translation counts in units of the
+// spread of its correspondences (its weight divided by that spread), the
+// unit of the displacement bound.
+bool AveragePart(const std::vector<int>& nodes,
+                 const std::vector<const RelativeSimilarity*>& edges,
+                 const std::vector<double>& edge_weights,
+                 const int reference,
+                 const SimilarityAveragingOptions& options,
+                 std::vector<Sim3d>* world_from_community,
+                 const bool translations_in_spreads = false) {
+  std::map<int, int> local;
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    local.emplace(nodes[k], static_cast<int>(k));
+  }
+  std::vector<std::pair<int, int>> edge_nodes;
+  for (const RelativeSimilarity* edge : edges) {
+    edge_nodes.emplace_back(edge->community1, edge->community2);
+  }
+
+  // 1. Scale: log s_i - log s_j = log s_ij.
+  Eigen::VectorXd log_scales;
+  {
+    Eigen::VectorXd b(edges.size());
+    for (size_t e = 0; e < edges.size(); ++e) {
+      b(e) = std::log(edges[e]->second_from_first.scale());
+    }
+    if (!SolveDifferenceSystem(nodes,
+                               edge_nodes,
+                               edge_weights,
+                               /*dim=*/1,
+                               reference,
+                               b,
+                               options.least_squares,
+                               &log_scales)) {
+      return false;
+    }
+  }
+
+  // 2. Rotation: R_i = R_j R_ij, i.e. R_j^T = R_ij R_i^T, averaged on the
+  // transposes (community_from_world rotations).
+  std::vector<Eigen::Quaterniond> community_from_world;
+  {
+    std::vector<RelativeRotation> relative_rotations;
+    for (size_t e = 0; e < edges.size(); ++e) {
+      RelativeRotation relative_rotation;
+      relative_rotation.node1 = local.at(edges[e]->community1);
+      relative_rotation.node2 = local.at(edges[e]->community2);
+      relative_rotation.rotation = edges[e]->second_from_first.rotation();
+      relative_rotation.weight = edge_weights[e];
+      relative_rotations.push_back(relative_rotation);
+    }
+    if (!AverageRotations(static_cast<int>(nodes.size()),
+                          relative_rotations,
+                          local.at(reference),
+                          options.rotation,
+                          &community_from_world)) {
+      return false;
+    }
+  }
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    Sim3d& transform = (*world_from_community)[nodes[k]];
+    transform.scale() = std::exp(log_scales(k));
+    transform.rotation() = community_from_world[k].inverse();
+    transform.translation().setZero();
+  }
+
+  // 3. Translation: T_i - T_j = T_ij, re-estimated from the correspondences.
+  Eigen::VectorXd b(3 * edges.size());
+  std::vector<double> translation_weights = edge_weights;
+  for (size_t e = 0; e < edges.size(); ++e) {
+    Eigen::Vector3d measurement;
+    double spread;
+    TranslationMeasurement(*edges[e],
+                           (*world_from_community)[edges[e]->community1],
+                           (*world_from_community)[edges[e]->community2],
+                           &measurement,
+                           &spread);
+    b.segment<3>(3 * e) = measurement;
+    if (translations_in_spreads && spread > 0) {
+      translation_weights[e] /= spread;
+    }
+  }
+  Eigen::VectorXd translations;
+  if (!SolveDifferenceSystem(nodes,
+                             edge_nodes,
+                             translation_weights,
+                             /*dim=*/3,
+                             reference,
+                             b,
+                             options.least_squares,
+                             &translations)) {
+    return false;
+  }
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    (*world_from_community)[nodes[k]].translation() =
+        translations.segment<3>(3 * k);
+  }
+  return true;
+}
+
+}  // namespace
+
+SimilarityAveragingResult::EdgeReport ComputeEdgeResiduals(
+    const RelativeSimilarity& edge,
+    const std::vector<Sim3d>& world_from_community) {
+  THROW_CHECK(!edge.points1.empty());
+  THROW_CHECK_EQ(edge.points1.size(), edge.points2.size());
+  const Sim3d& world_from_first = world_from_community[edge.community1];
+  const Sim3d& world_from_second = world_from_community[edge.community2];
+  SimilarityAveragingResult::EdgeReport report;
+  std::vector<Eigen::Vector3d> world_points2(edge.points2.size());
+  std::vector<double> displacements(edge.points1.size());
+  for (size_t k = 0; k < edge.points1.size(); ++k) {
+    world_points2[k] = world_from_second * edge.points2[k];
+    displacements[k] =
+        (world_from_first * edge.points1[k] - world_points2[k]).norm();
+  }
+  const double spread = MedianDistanceToMedian(world_points2);
+  const double displacement = Median(displacements);
+  // A non-finite placement gives an infinite (or NaN) displacement.
+  report.relative_displacement =
+      spread > 0
+          ? displacement / spread
+          : (displacement == 0 ? 0.0 : std::numeric_limits<double>::infinity());
+  // Predicted R_ij = R_j^T R_i, s_ij = s_i / s_j.
+  const Eigen::Quaterniond predicted_rotation =
+      world_from_second.rotation().inverse() * world_from_first.rotation();
+  report.rotation_residual_deg = RadToDeg(
+      predicted_rotation.angularDistance(edge.second_from_first.rotation()));
+  report.log_scale_residual = std::abs(
+      std::log(world_from_first.scale()) - std::log(world_from_second.scale()) -
+      std::log(edge.second_from_first.scale()));
+  return report;
+}
+
+bool EdgeWithinBound(const SimilarityAveragingResult::EdgeReport& report,
+                     const double max_relative_displacement) {
+  // Written so that a non-finite displacement counts as too large.
+  return report.relative_displacement <= max_relative_displacement;
+}
+
+namespace {
+
+// Images both communities registered that the two models place elsewhere
+// under the edge's similarity.
+int NumSharedImagesPlacedElsewhere(const RelativeSimilarity& edge) {
+  return edge.num_shared_images - edge.num_agreeing_shared_images;
+}
+
+// See SimilarityAveragingOptions::min_num_contradicting_shared_images.
+bool IsEdgeInDoubt(const RelativeSimilarity& edge,
+                   const SimilarityAveragingOptions& options) {
+  return options.min_num_contradicting_shared_images > 0 &&
+         NumSharedImagesPlacedElsewhere(edge) >=
+             options.min_num_contradicting_shared_images;
+}
+
+// Whether at least `min_num_agreeing` of the images both communities of
+// `edge` registered are placed alike under its similarity and at most
+// `max_num_disagreeing` are not.
+bool SharedImagesConfirm(const RelativeSimilarity& edge,
+                         const int min_num_agreeing,
+                         const int max_num_disagreeing) {
+  return edge.num_agreeing_shared_images >= min_num_agreeing &&
+         NumSharedImagesPlacedElsewhere(edge) <= max_num_disagreeing;
+}
+
+// Whether the L1 solution of a part leaves edges beyond the bound that are
+// all confirmed by their shared images, and the least squares solution
+// (which spreads a cycle's disagreement over its edges) brings every edge
+// of the part within it. If so, `world_from_community` holds the least
+// squares solution for the part's nodes. If some edges beyond the bound
+// are confirmed and others not, `deferred` receives the confirmed ones: they
+// are judged again once the others are out.
+bool SpreadCycleDrift(const std::vector<int>& nodes,
+                      const std::vector<const RelativeSimilarity*>& edges,
+                      const int reference,
+                      const SimilarityAveragingOptions& options,
+                      std::vector<Sim3d>* world_from_community,
+                      std::vector<const RelativeSimilarity*>* deferred) {
+  std::vector<const RelativeSimilarity*> confirmed_edges;
+  bool unconfirmed = false;
+  for (const RelativeSimilarity* edge : edges) {
+    if (EdgeWithinBound(ComputeEdgeResiduals(*edge, *world_from_community),
+                        options.max_relative_displacement)) {
+      continue;
+    }
+    const bool confirmed =
+        SharedImagesConfirm(*edge,
+                            options.min_num_confirming_shared_images,
+                            /*max_num_disagreeing=*/0) &&
+        edge->max_shared_image_relative_distance <=
+            options.max_relative_displacement;
+    if (confirmed) {
+      confirmed_edges.push_back(edge);
+    } else {
+      unconfirmed = true;
+    }
+  }
+  if (unconfirmed) {
+    *deferred = std::move(confirmed_edges);
+    return false;
+  }
+  if (confirmed_edges.empty()) {
+    return false;
+  }
+  // Drift is no edge's fault: every edge counts alike, its translation in
+  // units of its own spread (the bound's unit), so that a small
+  // community's edges do not take up the whole loop's gap.
+  SimilarityAveragingOptions least_squares_options = options;
+  least_squares_options.least_squares = true;
+  std::vector<Sim3d> spread = *world_from_community;
+  if (!AveragePart(nodes,
+                   edges,
+                   std::vector<double>(edges.size(), 1.0),
+                   reference,
+                   least_squares_options,
+                   &spread,
+                   /*translations_in_spreads=*/true)) {
+    return false;
+  }
+  for (const RelativeSimilarity* edge : edges) {
+    if (!EdgeWithinBound(ComputeEdgeResiduals(*edge, spread),
+                         options.max_relative_displacement)) {
+      return false;
+    }
+  }
+  for (const int node : nodes) {
+    (*world_from_community)[node] = spread[node];
+  }
+  return true;
+}
+
+// One connected part as it was averaged: its communities, reference and
+// kept edges with their weights.
+struct AveragedPart {
+  std::vector<int> nodes;
+  int reference = -1;
+  std::vector<const RelativeSimilarity*> edges;
+  std::vector<double> weights;
+};
+
+// The displacement of `edge`'s inlier points where the other edges of its
+// part, averaged without it, place its communities (infinite if their
+// averaging fails). `edge` lies on a cycle of the part's edges, so the
+// others still join every community of the part.
+double DisplacementUnderOtherEdges(const AveragedPart& part,
+                                   const RelativeSimilarity& edge,
+                                   const SimilarityAveragingOptions& options,
+                                   std::vector<Sim3d> world_from_community) {
+  std::vector<const RelativeSimilarity*> others;
+  std::vector<double> other_weights;
+  for (size_t e = 0; e < part.edges.size(); ++e) {
+    if (part.edges[e] != &edge) {
+      others.push_back(part.edges[e]);
+      other_weights.push_back(part.weights[e]);
+    }
+  }
+  if (!AveragePart(part.nodes,
+                   others,
+                   other_weights,
+                   part.reference,
+                   options,
+                   &world_from_community)) {
+    return std::numeric_limits<double>::infinity();
+  }
+  return ComputeEdgeResiduals(edge, world_from_community).relative_displacement;
+}
+
+}  // namespace
+
+bool SimilarityAveragingOptions::Check() const {
+  CHECK_OPTION(rotation.Check());
+  if (!CheckFlag(max_relative_displacement > 0,
+                 "averaging_max_relative_displacement",
+                 max_relative_displacement,
+                 "positive")) {
+    return false;
+  }
+  CHECK_OPTION_GE(max_num_rejection_rounds, 0);
+  CHECK_OPTION_GE(min_num_contradicting_shared_images, 0);
+  CHECK_OPTION_GE(min_num_shared_images_on_bridge, 0);
+  CHECK_OPTION_GE(min_num_confirming_shared_images, 1);
+  CHECK_OPTION_GT(doubtful_weight, 0);
+  CHECK_OPTION_LE(doubtful_weight, 1);
+  CHECK_OPTION_GT(full_support_num_inliers, 0);
+  CHECK_OPTION_GE(min_relative_size, 0);
+  return true;
+}
+
+int SimilarityAveragingResult::NumParts() const {
+  return part_of_community.empty()
+             ? 0
+             : 1 + *std::max_element(part_of_community.begin(),
+                                     part_of_community.end());
+}
+
+SimilarityAveragingResult AverageSimilarities(
+    const std::vector<AveragedCommunity>& communities,
+    const std::vector<RelativeSimilarity>& relative_similarities,
+    const SimilarityAveragingOptions& options) {
+  THROW_CHECK(options.Check());
+  const int num_communities = static_cast<int>(communities.size());
+  for (const RelativeSimilarity& edge : relative_similarities) {
+    THROW_CHECK_GE(edge.community1, 0);
+    THROW_CHECK_LT(edge.community1, num_communities);
+    THROW_CHECK_GE(edge.community2, 0);
+    THROW_CHECK_LT(edge.community2, num_communities);
+    THROW_CHECK_NE(edge.community1, edge.community2);
+    THROW_CHECK_GT(edge.second_from_first.scale(), 0);
+    THROW_CHECK(!edge.points1.empty());
+    THROW_CHECK_EQ(edge.points1.size(), edge.points2.size());
+  }
+
+  // Confidence of communities and edges.
+  std::vector<double> community_weights(num_communities);
+  std::vector<int> sizes;
+  for (int c = 0; c < num_communities; ++c) {
+    community_weights[c] = std::max(1, communities[c].num_images);
+    sizes.push_back(communities[c].num_images);
+  }
+  const double median_size =
+      sizes.empty() ? 0.0 : static_cast<double>(Median(sizes));
+  // Edge weights lie in [1 - kWeightRange, 1]: their order decides where a
+  // cycle's disagreement goes, while around every community a majority of
+  // right edges still outweighs a minority of wrong ones, as L1 needs.
+  constexpr double kWeightRange = 0.4;
+  std::vector<double> edge_weights(relative_similarities.size());
+  double max_weight = 0;
+  for (size_t e = 0; e < relative_similarities.size(); ++e) {
+    const RelativeSimilarity& edge = relative_similarities[e];
+    double support = std::min(community_weights[edge.community1],
+                              community_weights[edge.community2]);
+    if (edge.num_supporting_images > 0) {
+      support = std::min<double>(support, edge.num_supporting_images);
+    }
+    edge_weights[e] =
+        support *
+        std::min(1.0, edge.num_inliers / options.full_support_num_inliers) *
+        (IsEdgeInDoubt(edge, options) ? options.doubtful_weight : 1.0);
+    max_weight = std::max(max_weight, edge_weights[e]);
+  }
+  for (double& weight : edge_weights) {
+    weight = 1 - kWeightRange +
+             kWeightRange * (max_weight > 0 ? weight / max_weight : 1);
+  }
+
+  SimilarityAveragingResult result;
+  result.world_from_community.assign(num_communities, Sim3d());
+  result.edges.resize(relative_similarities.size());
+  result.excluded.assign(num_communities, false);
+  for (size_t e = 0; e < relative_similarities.size(); ++e) {
+    const RelativeSimilarity& edge = relative_similarities[e];
+    result.edges[e].contradicted =
+        IsEdgeInDoubt(edge, options) &&
+        NumSharedImagesPlacedElsewhere(edge) >= edge.num_agreeing_shared_images;
+    result.edges[e].kept = !result.edges[e].contradicted;
+  }
+
+  // Whether no other kept edge joins the communities of edge e, directly or
+  // through others: e lies on no cycle of kept edges.
+  const auto IsBridge = [&](const size_t e) {
+    std::vector<std::pair<int, int>> other_edges;
+    for (size_t f = 0; f < relative_similarities.size(); ++f) {
+      if (f != e && result.edges[f].kept) {
+        other_edges.emplace_back(relative_similarities[f].community1,
+                                 relative_similarities[f].community2);
+      }
+    }
+    const std::vector<int> labels =
+        ConnectedComponentLabels(num_communities, other_edges);
+    return labels[relative_similarities[e].community1] !=
+           labels[relative_similarities[e].community2];
+  };
+
+  const auto CountKeptEdges = [&]() {
+    std::vector<int> num_kept_edges(num_communities, 0);
+    for (size_t e = 0; e < relative_similarities.size(); ++e) {
+      if (result.edges[e].kept) {
+        ++num_kept_edges[relative_similarities[e].community1];
+        ++num_kept_edges[relative_similarities[e].community2];
+      }
+    }
+    return num_kept_edges;
+  };
+
+  // Rejecting one edge per part and round takes up to one round per edge.
+  const int max_num_rounds =
+      options.reject_worst_first && options.max_num_rejection_rounds > 0
+          ? std::max(options.max_num_rejection_rounds,
+                     static_cast<int>(relative_similarities.size()))
+          : options.max_num_rejection_rounds;
+  std::vector<std::vector<int>> parts;
+  for (int round = 0;; ++round) {
+    // Connected parts over the kept edges.
+    std::vector<std::pair<int, int>> kept_edges;
+    for (size_t e = 0; e < relative_similarities.size(); ++e) {
+      if (result.edges[e].kept) {
+        kept_edges.emplace_back(relative_similarities[e].community1,
+                                relative_similarities[e].community2);
+      }
+    }
+    const std::vector<int> component =
+        ConnectedComponentLabels(num_communities, kept_edges);
+    parts.clear();
+    std::map<int, size_t> part_of_label;  // Parts by smallest community.
+    for (int node = 0; node < num_communities; ++node) {
+      const auto it =
+          part_of_label.emplace(component[node], parts.size()).first;
+      if (it->second == parts.size()) {
+        parts.emplace_back();
+      }
+      parts[it->second].push_back(node);
+    }
+
+    // A part whose averaging fails loses its edges; the next round splits it.
+    bool failed = false;
+    std::unordered_set<const RelativeSimilarity*> deferred;
+    std::map<int, AveragedPart> averaged_parts;  // By the parts' labels.
+    for (std::vector<int>& nodes : parts) {
+      int reference = nodes.front();
+      for (const int node : nodes) {
+        if (communities[node].num_images > communities[reference].num_images) {
+          reference = node;
+        }
+      }
+      std::vector<const RelativeSimilarity*> edges;
+      std::vector<double> weights;
+      std::vector<size_t> edge_indices;
+      for (size_t e = 0; e < relative_similarities.size(); ++e) {
+        if (result.edges[e].kept &&
+            component[relative_similarities[e].community1] ==
+                component[reference]) {
+          edges.push_back(&relative_similarities[e]);
+          weights.push_back(edge_weights[e]);
+          edge_indices.push_back(e);
+        }
+      }
+      if (!AveragePart(nodes,
+                       edges,
+                       weights,
+                       reference,
+                       options,
+                       &result.world_from_community)) {
+        LOG(WARNING) << "Similarity averaging failed for a part of "
+                     << nodes.size() << " communities; they are kept apart.";
+        for (const size_t e : edge_indices) {
+          result.edges[e].kept = false;
+        }
+        for (const int node : nodes) {
+          result.world_from_community[node] = Sim3d();
+        }
+        failed = failed || !edge_indices.empty();
+        continue;
+      }
+      averaged_parts[component[reference]] = {nodes, reference, edges, weights};
+      if (options.spread_cycle_drift) {
+        std::vector<const RelativeSimilarity*> deferred_edges;
+        if (SpreadCycleDrift(nodes,
+                             edges,
+                             reference,
+                             options,
+                             &result.world_from_community,
+                             &deferred_edges)) {
+          LOG(INFO) << "A part of " << nodes.size()
+                    << " communities does not close under robust averaging, "
+                       "but every edge beyond the bound is confirmed by its "
+                       "shared images and least squares spreads the "
+                       "disagreement within it: drift, kept";
+        }
+        deferred.insert(deferred_edges.begin(), deferred_edges.end());
+      }
+    }
+
+    // Residuals of the kept edges; reject the large ones, and with each the
+    // weaker community if it cannot be trusted on its own.
+    std::vector<int> to_exclude;
+    bool rejected = false;
+    // With reject_worst_first, the edge furthest beyond the bound in each
+    // part (by its reference's label): displacement and index.
+    std::map<int, std::pair<double, size_t>> worst_of_part;
+    std::map<int, int> num_beyond_bound;  // By the parts' labels.
+    std::vector<size_t> to_reject;
+    for (size_t e = 0; e < relative_similarities.size(); ++e) {
+      if (!result.edges[e].kept) {
+        continue;
+      }
+      const RelativeSimilarity& edge = relative_similarities[e];
+      result.edges[e] = ComputeEdgeResiduals(edge, result.world_from_community);
+      result.edges[e].kept = true;
+      const double displacement = result.edges[e].relative_displacement;
+      if (EdgeWithinBound(result.edges[e], options.max_relative_displacement)) {
+        continue;
+      }
+      // A bridge is placed by its own similarity alone: its displacement is
+      // its own fit's residual, no other edge's disagreement, and the bridge
+      // rule below judges it. It is no cycle's link, so it does not count
+      // among its part's links beyond the bound either.
+      const bool finite = std::isfinite(displacement);
+      if (finite && IsBridge(e)) {
+        continue;
+      }
+      const int label = component[edge.community1];
+      ++num_beyond_bound[label];
+      // A non-finite displacement is rejected in any round. An edge beyond
+      // the bound that its shared images confirm waits while unconfirmed
+      // ones of its part go (SpreadCycleDrift).
+      const bool waits = finite && deferred.count(&edge) > 0;
+      if (waits || (round >= max_num_rounds && finite)) {
+        continue;
+      }
+      if (!finite || !options.reject_worst_first) {
+        to_reject.push_back(e);
+        continue;
+      }
+      auto& worst =
+          worst_of_part.emplace(label, std::make_pair(0.0, e)).first->second;
+      if (displacement > worst.first) {
+        worst = {displacement, e};
+      }
+    }
+    for (const auto& [label, worst] : worst_of_part) {
+      const RelativeSimilarity& edge = relative_similarities[worst.second];
+      if (num_beyond_bound.at(label) == 1) {
+        const double displacement =
+            DisplacementUnderOtherEdges(averaged_parts.at(label),
+                                        edge,
+                                        options,
+                                        result.world_from_community);
+        LOG(INFO) << StringPrintf(
+            "Communities %d-%d: displacement %.4f, the only link of its part "
+            "beyond the bound; the other links place its points %.4f off -> "
+            "%s",
+            edge.community1,
+            edge.community2,
+            result.edges[worst.second].relative_displacement,
+            displacement,
+            displacement <= options.max_relative_displacement
+                ? "the cycle's gap, kept"
+                : "rejected");
+        if (displacement <= options.max_relative_displacement) {
+          continue;
+        }
+      }
+      to_reject.push_back(worst.second);
+    }
+    for (const size_t e : to_reject) {
+      result.edges[e].kept = false;
+      rejected = true;
+      const int community1 = relative_similarities[e].community1;
+      const int community2 = relative_similarities[e].community2;
+      const int weaker =
+          community_weights[community1] <= community_weights[community2]
+              ? community1
+              : community2;
+      if (communities[weaker].num_images <
+          options.min_relative_size * median_size) {
+        to_exclude.push_back(weaker);
+      }
+    }
+    // A small community that is left with fewer than two kept edges has
+    // nothing that confirms its own model against the rejected edge (it may
+    // be a short piece bent inside itself, which one edge cannot check): it
+    // leaves. With two or more, the others agree on where it is and the
+    // rejected similarity was the odd one out.
+    const std::vector<int> num_kept_edges = CountKeptEdges();
+    for (const int community : to_exclude) {
+      if (num_kept_edges[community] >= 2) {
+        continue;
+      }
+      result.excluded[community] = true;
+      for (size_t e = 0; e < relative_similarities.size(); ++e) {
+        if (result.edges[e].kept &&
+            (relative_similarities[e].community1 == community ||
+             relative_similarities[e].community2 == community)) {
+          result.edges[e].kept = false;
+          result.edges[e].community_left = true;
+        }
+      }
+    }
+    if (rejected || failed) {
+      continue;
+    }
+
+    // Edges that no cycle of kept edges checks (bridges): the averaging fits
+    // them as they are, right or wrong. The images both models registered
+    // must confirm such an edge (see below). Two sound communities can be
+    // joined by wrong matches alone: their similarity then rests on few
+    // inliers among many correspondences and on no shared image, and it can
+    // still pass the co-visibility check; kept, it misplaces the whole weaker
+    // community.
+    bool dropped_bridge = false;
+    for (size_t e = 0; e < relative_similarities.size(); ++e) {
+      const RelativeSimilarity& edge = relative_similarities[e];
+      if (!result.edges[e].kept) {
+        continue;
+      }
+      // Full support stands in for the shared images where there are few,
+      // and a minority of them placed elsewhere (borrowed images at the edge
+      // of a drifting community, placed just too far off to agree) does not
+      // veto the edge.
+      const bool full_support =
+          edge.num_inliers >= options.full_support_num_inliers;
+      const int min_num_agreeing =
+          full_support ? 0 : options.min_num_shared_images_on_bridge;
+      const int max_num_disagreeing =
+          std::max(1, edge.num_agreeing_shared_images - 1);
+      if (SharedImagesConfirm(edge, min_num_agreeing, max_num_disagreeing)) {
+        continue;
+      }
+      if (IsBridge(e)) {
+        result.edges[e].kept = false;
+        result.edges[e].unconfirmed = true;
+        dropped_bridge = true;
+      }
+    }
+    if (!dropped_bridge) {
+      break;
+    }
+  }
+
+  // Parts by total size, largest first (ties: smallest community).
+  std::stable_sort(parts.begin(),
+                   parts.end(),
+                   [&](const std::vector<int>& a, const std::vector<int>& b) {
+                     int size_a = 0;
+                     int size_b = 0;
+                     for (const int node : a) {
+                       size_a += communities[node].num_images;
+                     }
+                     for (const int node : b) {
+                       size_b += communities[node].num_images;
+                     }
+                     return size_a > size_b;
+                   });
+  result.part_of_community.assign(num_communities, -1);
+  for (size_t p = 0; p < parts.size(); ++p) {
+    for (const int node : parts[p]) {
+      result.part_of_community[node] = static_cast<int>(p);
+    }
+  }
+  return result;
+}
+
+}  // namespace colmap

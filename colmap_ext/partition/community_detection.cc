@@ -1,0 +1,573 @@
+#include "colmap_ext/partition/community_detection.h"
+#include "colmap_ext/util/option_check.h"
+
+#include "colmap/util/logging.h"
+#include "colmap/util/string.h"
+
+#include <algorithm>
+#include <map>
+#include <numeric>
+
+#include <igraph.h>
+
+namespace colmap {
+namespace {
+
+#define IGRAPH_CALL(expr)                                                 \
+  do {                                                                    \
+    const igraph_error_t igraph_status = (expr);                          \
+    THROW_CHECK_EQ(igraph_status, IGRAPH_SUCCESS)                         \
+        << "igraph: " << #expr << ": " << igraph_strerror(igraph_status); \
+  } while (false)
+
+// Owners of igraph's C objects, so that every path out frees them.
+struct IgraphGraph {
+  igraph_t graph;
+  explicit IgraphGraph(const igraph_vector_int_t& edges, int num_vertices) {
+    IGRAPH_CALL(igraph_create(&graph, &edges, num_vertices, IGRAPH_UNDIRECTED));
+  }
+  ~IgraphGraph() { igraph_destroy(&graph); }
+};
+
+struct IgraphIntVector {
+  igraph_vector_int_t vector;
+  explicit IgraphIntVector(igraph_integer_t size) {
+    IGRAPH_CALL(igraph_vector_int_init(&vector, size));
+  }
+  ~IgraphIntVector() { igraph_vector_int_destroy(&vector); }
+};
+
+struct IgraphRealVector {
+  igraph_vector_t vector;
+  explicit IgraphRealVector(igraph_integer_t size) {
+    IGRAPH_CALL(igraph_vector_init(&vector, size));
+  }
+  ~IgraphRealVector() { igraph_vector_destroy(&vector); }
+};
+
+struct IgraphIntMatrix {
+  igraph_matrix_int_t matrix;
+  IgraphIntMatrix() { IGRAPH_CALL(igraph_matrix_int_init(&matrix, 0, 0)); }
+  ~IgraphIntMatrix() { igraph_matrix_int_destroy(&matrix); }
+};
+
+// igraph aborts the process on errors by default; report them as error codes
+// instead, which IGRAPH_CALL turns into exceptions.
+void UseIgraphErrorCodes() {
+  static const bool kInitialized = [] {
+    igraph_set_error_handler(igraph_error_handler_ignore);
+    igraph_set_warning_handler(igraph_warning_handler_ignore);
+    return true;
+  }();
+  (void)kInitialized;
+}
+
+// Sums the weights of parallel edges and drops self-loops: CNM needs a
+// simple graph.
+std::vector<WeightedGraph::Edge> SimpleEdges(const WeightedGraph& graph) {
+  std::map<std::pair<int, int>, double> weights;
+  for (const auto& edge : graph.edges) {
+    if (edge.vertex1 == edge.vertex2) {
+      continue;
+    }
+    THROW_CHECK_GT(edge.weight, 0.0) << "Edge weights must be positive.";
+    weights[std::minmax(edge.vertex1, edge.vertex2)] += edge.weight;
+  }
+  std::vector<WeightedGraph::Edge> edges;
+  edges.reserve(weights.size());
+  for (const auto& pair_and_weight : weights) {
+    edges.push_back({pair_and_weight.first.first,
+                     pair_and_weight.first.second,
+                     pair_and_weight.second});
+  }
+  return edges;
+}
+
+// Relabels communities to 0..K-1, largest first, ties by smallest vertex.
+std::vector<int> RelabelBySize(const std::vector<int>& membership) {
+  std::map<int, std::vector<int>> members;
+  for (size_t vertex = 0; vertex < membership.size(); ++vertex) {
+    members[membership[vertex]].push_back(static_cast<int>(vertex));
+  }
+  std::vector<std::vector<int>> communities;
+  for (auto& label_and_members : members) {
+    communities.push_back(std::move(label_and_members.second));
+  }
+  std::sort(communities.begin(),
+            communities.end(),
+            [](const std::vector<int>& a, const std::vector<int>& b) {
+              if (a.size() != b.size()) {
+                return a.size() > b.size();
+              }
+              return a.front() < b.front();
+            });
+  std::vector<int> relabeled(membership.size(), -1);
+  for (size_t label = 0; label < communities.size(); ++label) {
+    for (const int vertex : communities[label]) {
+      relabeled[vertex] = static_cast<int>(label);
+    }
+  }
+  return relabeled;
+}
+
+// Merges every community smaller than min_size into the community with the
+// most edges to it (ties: the larger one, then the smaller label), smallest
+// community first, until no small community has a neighbour left.
+void MergeSmallCommunities(const WeightedGraph& graph,
+                           const int min_size,
+                           std::vector<int>* membership) {
+  std::map<int, int> sizes;
+  for (const int label : *membership) {
+    ++sizes[label];
+  }
+  // Number of view-graph edges between each pair of communities.
+  std::map<int, std::map<int, int>> num_cross_edges;
+  for (const auto& edge : graph.edges) {
+    const int label1 = (*membership)[edge.vertex1];
+    const int label2 = (*membership)[edge.vertex2];
+    if (label1 != label2) {
+      ++num_cross_edges[label1][label2];
+      ++num_cross_edges[label2][label1];
+    }
+  }
+  std::map<int, int> merged_into;  // label -> label it was merged into
+
+  while (true) {
+    // The smallest community below min_size that has a neighbour.
+    int label = -1;
+    for (const auto& label_and_size : sizes) {
+      if (label_and_size.second < min_size &&
+          !num_cross_edges[label_and_size.first].empty() &&
+          (label == -1 || label_and_size.second < sizes.at(label))) {
+        label = label_and_size.first;
+      }
+    }
+    if (label == -1) {
+      break;
+    }
+
+    int target = -1;
+    for (const auto& other_and_count : num_cross_edges.at(label)) {
+      const int other = other_and_count.first;
+      const int count = other_and_count.second;
+      if (target == -1 || count > num_cross_edges.at(label).at(target) ||
+          (count == num_cross_edges.at(label).at(target) &&
+           sizes.at(other) > sizes.at(target))) {
+        target = other;
+      }
+    }
+
+    // Move the cross edges of `label` to `target`.
+    for (const auto& other_and_count : num_cross_edges.at(label)) {
+      const int other = other_and_count.first;
+      num_cross_edges[other].erase(label);
+      if (other != target) {
+        num_cross_edges[target][other] += other_and_count.second;
+        num_cross_edges[other][target] += other_and_count.second;
+      }
+    }
+    num_cross_edges.erase(label);
+    sizes[target] += sizes.at(label);
+    sizes.erase(label);
+    merged_into[label] = target;
+  }
+
+  for (int& vertex_label : *membership) {
+    while (merged_into.count(vertex_label) > 0) {
+      vertex_label = merged_into.at(vertex_label);
+    }
+  }
+}
+
+// Judges whether the parts of `membership` (labels of the vertices of
+// `graph`) are communities: the conductance cut(P) / vol(P) of every part P
+// within `graph` (weighted; the parts under min_community_size counted with
+// the sibling MergeSmallCommunities gives them) must be at most
+// max_part_conductance. While one is not, the worst part joins the sibling
+// it has the most edge weight to if it holds at most
+// max_joined_part_fraction of the vertices; a larger one refuses the split
+// (returns false, `membership` unchanged). Records in `record` the largest
+// conductance before any join and, where the split stands, the number of
+// joins.
+bool JoinSmallPartsThatAreNotCommunities(
+    const WeightedGraph& graph,
+    const CommunityDetectionOptions& options,
+    std::vector<int>* membership,
+    CommunityPartition::Split* record) {
+  std::vector<int> joined = *membership;
+  for (int num_joined = 0;; ++num_joined) {
+    std::vector<int> merged = joined;
+    MergeSmallCommunities(graph, options.min_community_size, &merged);
+    std::map<int, double> volume;
+    std::map<int, std::map<int, double>> cross;
+    for (const auto& edge : graph.edges) {
+      const int label1 = merged[edge.vertex1];
+      const int label2 = merged[edge.vertex2];
+      volume[label1] += edge.weight;
+      volume[label2] += edge.weight;
+      if (label1 != label2) {
+        cross[label1][label2] += edge.weight;
+        cross[label2][label1] += edge.weight;
+      }
+    }
+    int worst = -1;
+    double worst_conductance = 0.0;
+    for (const auto& label_and_cross : cross) {
+      double cut = 0.0;
+      for (const auto& other_and_weight : label_and_cross.second) {
+        cut += other_and_weight.second;
+      }
+      const double conductance = cut / volume.at(label_and_cross.first);
+      if (conductance > worst_conductance) {
+        worst = label_and_cross.first;
+        worst_conductance = conductance;
+      }
+    }
+    if (num_joined == 0) {
+      record->max_part_conductance = worst_conductance;
+    }
+    if (worst == -1 || worst_conductance <= options.max_part_conductance) {
+      *membership = std::move(joined);
+      record->num_joined_parts = num_joined;
+      return true;
+    }
+    const auto worst_size = std::count(merged.begin(), merged.end(), worst);
+    if (worst_size > options.max_joined_part_fraction * graph.num_vertices) {
+      return false;
+    }
+    const std::map<int, double>& worst_cross = cross.at(worst);
+    const int target = std::max_element(worst_cross.begin(),
+                                        worst_cross.end(),
+                                        [](const auto& a, const auto& b) {
+                                          return a.second < b.second;
+                                        })
+                           ->first;
+    for (size_t vertex = 0; vertex < merged.size(); ++vertex) {
+      if (merged[vertex] == worst) {
+        joined[vertex] = target;
+      }
+    }
+  }
+}
+
+}  // namespace
+
+GraphPartitioner::Result GreedyModularityPartitioner::Partition(
+    const WeightedGraph& graph) const {
+  UseIgraphErrorCodes();
+  const std::vector<WeightedGraph::Edge> edges = SimpleEdges(graph);
+  THROW_CHECK_GE(graph.num_vertices, 2);
+  THROW_CHECK(!edges.empty());
+
+  IgraphIntVector igraph_edges(2 * static_cast<igraph_integer_t>(edges.size()));
+  IgraphRealVector weights(static_cast<igraph_integer_t>(edges.size()));
+  for (size_t i = 0; i < edges.size(); ++i) {
+    VECTOR(igraph_edges.vector)[2 * i] = edges[i].vertex1;
+    VECTOR(igraph_edges.vector)[2 * i + 1] = edges[i].vertex2;
+    VECTOR(weights.vector)[i] = edges[i].weight;
+  }
+  IgraphGraph igraph_graph(igraph_edges.vector, graph.num_vertices);
+
+  IgraphIntMatrix merges;
+  IgraphRealVector modularity(0);
+  IgraphIntVector membership(0);
+  IGRAPH_CALL(igraph_community_fastgreedy(&igraph_graph.graph,
+                                          &weights.vector,
+                                          &merges.matrix,
+                                          &modularity.vector,
+                                          &membership.vector));
+
+  Result result;
+  result.modularity = igraph_vector_max(&modularity.vector);
+  result.membership.resize(graph.num_vertices);
+  for (int vertex = 0; vertex < graph.num_vertices; ++vertex) {
+    result.membership[vertex] =
+        static_cast<int>(VECTOR(membership.vector)[vertex]);
+  }
+  result.membership = RelabelBySize(result.membership);
+  result.num_communities =
+      1 + *std::max_element(result.membership.begin(), result.membership.end());
+  return result;
+}
+
+bool CommunityDetectionOptions::Check() const {
+  bool valid = true;
+  valid &= CheckFlag(modularity_threshold >= 0 && modularity_threshold < 1,
+                     "modularity_threshold",
+                     modularity_threshold,
+                     "in [0, 1) (the CSfM paper uses 0.3)");
+  valid &= CheckFlag(min_community_size >= 2,
+                     "min_community_size",
+                     min_community_size,
+                     "at least 2 (the CSfM paper uses 20)");
+  valid &= CheckFlag(
+      max_community_fraction > 0 && max_community_fraction <= 1,
+      "max_community_fraction",
+      max_community_fraction,
+      "in (0, 1] (1: split by the threshold only)");
+  valid &= CheckFlag(max_part_conductance > 0 && max_part_conductance <= 1,
+                     "partition_max_part_conductance",
+                     max_part_conductance,
+                     "in (0, 1] (1: split by the threshold only)");
+  valid &= CheckFlag(
+      max_joined_part_fraction >= 0 && max_joined_part_fraction < 1,
+      "partition_max_joined_part_fraction",
+      max_joined_part_fraction,
+      "in [0, 1)");
+  CHECK_OPTION_GE(max_recursion_depth, 0);
+  return valid;
+}
+
+int CommunityPartition::NumCommunities() const {
+  return membership.empty()
+             ? 0
+             : 1 + *std::max_element(membership.begin(), membership.end());
+}
+
+std::vector<std::vector<int>> CommunityPartition::Communities() const {
+  std::vector<std::vector<int>> communities(NumCommunities());
+  for (size_t vertex = 0; vertex < membership.size(); ++vertex) {
+    communities[membership[vertex]].push_back(static_cast<int>(vertex));
+  }
+  return communities;
+}
+
+double CommunityPartition::MaxModularity() const {
+  double max_modularity = 0.0;
+  for (const Split& split : splits) {
+    max_modularity = std::max(max_modularity, split.modularity);
+  }
+  return max_modularity;
+}
+
+CommunityPartition DetectCommunities(const WeightedGraph& graph,
+                                     const GraphPartitioner& partitioner,
+                                     const CommunityDetectionOptions& options) {
+  THROW_CHECK(options.Check());
+  for (const auto& edge : graph.edges) {
+    THROW_CHECK_GE(edge.vertex1, 0);
+    THROW_CHECK_LT(edge.vertex1, graph.num_vertices);
+    THROW_CHECK_GE(edge.vertex2, 0);
+    THROW_CHECK_LT(edge.vertex2, graph.num_vertices);
+  }
+
+  CommunityPartition partition;
+  partition.membership.assign(graph.num_vertices, -1);
+
+  // Depth-first recursion over vertex sets of `graph`, each connected.
+  struct Pending {
+    std::vector<int> vertices;
+    int depth = 0;
+    // Images of the connected component it belongs to.
+    int component_size = 0;
+    // Whether it is a part of a balance split (see below).
+    bool balanced = false;
+  };
+  std::vector<Pending> pending;
+  const std::vector<std::vector<int>> components = graph.ConnectedComponents();
+  partition.num_components = static_cast<int>(components.size());
+  for (auto it = components.rbegin(); it != components.rend(); ++it) {
+    pending.push_back({*it, 0, static_cast<int>(it->size())});
+  }
+
+  int num_final = 0;
+  while (!pending.empty()) {
+    Pending current = std::move(pending.back());
+    pending.pop_back();
+
+    const WeightedGraph subgraph = graph.InducedSubgraph(current.vertices);
+    bool split = false;
+    if (subgraph.num_vertices >= 2 && !subgraph.edges.empty() &&
+        current.depth < options.max_recursion_depth) {
+      const GraphPartitioner::Result result = partitioner.Partition(subgraph);
+      CommunityPartition::Split record;
+      record.depth = current.depth;
+      record.num_vertices = subgraph.num_vertices;
+      record.num_edges = static_cast<int>(subgraph.edges.size());
+      record.modularity = result.modularity;
+      record.num_parts = result.num_communities;
+      // A split by the threshold whose parts are communities, once the
+      // small parts that are not have joined a sibling.
+      std::vector<int> membership = result.membership;
+      int num_parts = result.num_communities;
+      if (result.num_communities > 1 &&
+          result.modularity > options.modularity_threshold &&
+          JoinSmallPartsThatAreNotCommunities(
+              subgraph, options, &membership, &record)) {
+        membership = RelabelBySize(membership);
+        num_parts = 1 + *std::max_element(membership.begin(), membership.end());
+        record.accepted = num_parts > 1;
+      }
+      if (!record.accepted && result.num_communities > 1 && !current.balanced &&
+          current.vertices.size() >
+              options.max_community_fraction * current.component_size) {
+        std::vector<int> part_sizes(result.num_communities, 0);
+        for (const int label : result.membership) {
+          ++part_sizes[label];
+        }
+        std::sort(part_sizes.begin(), part_sizes.end(), std::greater<int>());
+        record.balance = part_sizes[1] >= options.min_community_size;
+        record.accepted = record.balance;
+        // CNM's parts as they are (even where small ones were joined into
+        // one part above).
+        membership = result.membership;
+        num_parts = result.num_communities;
+      }
+      partition.splits.push_back(record);
+      LOG(INFO) << StringPrintf(
+          "%*sSplit %d images (%d edges): Qmax = %.4f, %d parts (largest "
+          "conductance %.3f, %d joined) -> %s",
+          2 * current.depth,
+          "",
+          record.num_vertices,
+          record.num_edges,
+          record.modularity,
+          record.num_parts,
+          record.max_part_conductance,
+          record.num_joined_parts,
+          record.balance ? "split (more than its share of the component)"
+          : record.accepted
+              ? "split"
+              : (record.max_part_conductance > options.max_part_conductance
+                     ? "kept as one community (a part is no community)"
+                     : "kept as one community"));
+
+      if (record.accepted) {
+        split = true;
+        std::vector<std::vector<int>> parts(num_parts);
+        for (int i = 0; i < subgraph.num_vertices; ++i) {
+          parts[membership[i]].push_back(current.vertices[i]);
+        }
+        // A partitioner may return a community that is not connected; each
+        // of its connected pieces is a community of its own.
+        std::vector<Pending> children;
+        for (const std::vector<int>& part : parts) {
+          const WeightedGraph part_graph = graph.InducedSubgraph(part);
+          for (const std::vector<int>& piece :
+               part_graph.ConnectedComponents()) {
+            Pending child;
+            child.depth = current.depth + 1;
+            child.component_size = current.component_size;
+            child.balanced = current.balanced || record.balance;
+            for (const int i : piece) {
+              child.vertices.push_back(part[i]);
+            }
+            children.push_back(std::move(child));
+          }
+        }
+        for (auto it = children.rbegin(); it != children.rend(); ++it) {
+          pending.push_back(std::move(*it));
+        }
+      }
+    }
+    if (!split) {
+      for (const int vertex : current.vertices) {
+        partition.membership[vertex] = num_final;
+      }
+      ++num_final;
+    }
+  }
+
+  partition.num_communities_before_merge = num_final;
+  MergeSmallCommunities(
+      graph, options.min_community_size, &partition.membership);
+  partition.membership = RelabelBySize(partition.membership);
+  return partition;
+}
+
+std::vector<std::vector<int>> ExtendCommunities(
+    const WeightedGraph& graph,
+    const CommunityPartition& partition,
+    const int num_overlap_images) {
+  THROW_CHECK_GE(num_overlap_images, 0);
+  THROW_CHECK_EQ(partition.membership.size(),
+                 static_cast<size_t>(graph.num_vertices));
+  std::vector<std::vector<std::pair<int, double>>> adjacency(
+      graph.num_vertices);
+  for (const auto& edge : graph.edges) {
+    adjacency[edge.vertex1].emplace_back(edge.vertex2, edge.weight);
+    adjacency[edge.vertex2].emplace_back(edge.vertex1, edge.weight);
+  }
+
+  std::vector<std::vector<int>> extended = partition.Communities();
+  if (num_overlap_images == 0) {
+    return extended;
+  }
+  const std::vector<int>& membership = partition.membership;
+  for (size_t community = 0; community < extended.size(); ++community) {
+    std::vector<char> inside(graph.num_vertices, 0);
+    for (const int vertex : extended[community]) {
+      inside[vertex] = 1;
+    }
+    // Links (edge count, summed weight) of outside vertices to the inside.
+    std::map<int, std::pair<int, double>> links;
+    auto add_links = [&](const int vertex) {
+      for (const auto& neighbor : adjacency[vertex]) {
+        if (!inside[neighbor.first]) {
+          auto& link = links[neighbor.first];
+          link.first += 1;
+          link.second += neighbor.second;
+        }
+      }
+    };
+    for (const int vertex : extended[community]) {
+      add_links(vertex);
+    }
+    std::map<int, int> num_added;  // per neighbouring community
+    while (true) {
+      int best = -1;
+      for (const auto& vertex_and_link : links) {
+        const int vertex = vertex_and_link.first;
+        if (inside[vertex] ||
+            num_added[membership[vertex]] >= num_overlap_images) {
+          continue;
+        }
+        if (best == -1 || vertex_and_link.second.first > links[best].first ||
+            (vertex_and_link.second.first == links[best].first &&
+             vertex_and_link.second.second > links[best].second)) {
+          best = vertex;
+        }
+      }
+      if (best == -1) {
+        break;
+      }
+      inside[best] = 1;
+      ++num_added[membership[best]];
+      extended[community].push_back(best);
+      links.erase(best);
+      add_links(best);
+    }
+  }
+  return extended;
+}
+
+double ComputeModularity(const WeightedGraph& graph,
+                         const std::vector<int>& membership) {
+  THROW_CHECK_EQ(membership.size(), static_cast<size_t>(graph.num_vertices));
+  std::vector<double> degree(graph.num_vertices, 0.0);
+  double total_weight = 0.0;  // m
+  double intra_weight = 0.0;  // sum of weights of edges inside communities
+  for (const auto& edge : graph.edges) {
+    degree[edge.vertex1] += edge.weight;
+    degree[edge.vertex2] += edge.weight;
+    total_weight += edge.weight;
+    if (membership[edge.vertex1] == membership[edge.vertex2]) {
+      intra_weight += edge.weight;
+    }
+  }
+  if (total_weight <= 0.0) {
+    return 0.0;
+  }
+  std::map<int, double> community_degree;
+  for (int vertex = 0; vertex < graph.num_vertices; ++vertex) {
+    community_degree[membership[vertex]] += degree[vertex];
+  }
+  double expected = 0.0;
+  for (const auto& label_and_degree : community_degree) {
+    expected += label_and_degree.second * label_and_degree.second;
+  }
+  return intra_weight / total_weight -
+         expected / (4.0 * total_weight * total_weight);
+}
+
+}  // namespace colmap

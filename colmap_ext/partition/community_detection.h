@@ -1,0 +1,186 @@
+// Community detection on the view graph.
+//
+// CSfM (Cui et al., "CSfM: Community-based Structure from Motion", ICIP 2017),
+// section 2. With A_ij the (weighted) adjacency matrix, d_i = sum_j A_ij and
+// 2m = sum_ij A_ij, the modularity of a partition into communities U is
+//
+//     Q = 1/(2m) sum_ij (A_ij - d_i d_j / (2m)) delta(U_i, U_j).
+//
+// Greedy modularity maximisation (Clauset, Newman and Moore, "Finding
+// community structure in very large networks", Phys. Rev. E 70, 2004) merges
+// singleton communities in the order of the largest increase of Q; the cut of
+// its dendrogram at the peak Q_max is the partition. CSfM:
+//   1. splits a graph only where Q_max exceeds a threshold (0.3): below it
+//      the graph has no significant community structure;
+//   2. recurses into every community until none splits;
+//   3. merges every community with fewer than N images (20) into the
+//      connected community with the most view-graph edges to it.
+// Two rules are added. A split by the threshold is made only where its parts
+// are communities: none may have a conductance (the share of its edges'
+// weight that leads to the other parts) above max_part_conductance, but a
+// small such part (a connecting piece) joins a sibling instead.
+// Modularity measures against a random graph, which a chain of overlapping
+// views beats without community structure (Guimera, Sales-Pardo and Amaral,
+// "Modularity from fluctuations in random graphs and complex networks",
+// Phys. Rev. E 70, 2004). And for the parallel reconstruction, a (sub)graph
+// holding more than half of its connected component is split at its peak
+// even where the first two rules refuse (max_community_fraction), once: the
+// parts of such a split split further only by the others.
+// Each connected component is handled on its own.
+//
+// The recursion and the merge are independent of how one level is split: a
+// `GraphPartitioner` does that, and another algorithm (Leiden, say) can take
+// the place of greedy modularity.
+
+#pragma once
+
+#include "colmap_ext/partition/view_graph.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace colmap {
+
+// Splits a graph once into communities.
+class GraphPartitioner {
+ public:
+  struct Result {
+    // Community of each vertex, 0..num_communities-1.
+    std::vector<int> membership;
+    int num_communities = 0;
+    // Modularity of `membership` (for greedy modularity: Q_max).
+    double modularity = 0.0;
+  };
+
+  virtual ~GraphPartitioner() = default;
+
+  // The name of the algorithm, for the log.
+  virtual std::string Name() const = 0;
+
+  // The graph has at least two vertices and at least one edge.
+  virtual Result Partition(const WeightedGraph& graph) const = 0;
+};
+
+// Clauset-Newman-Moore greedy modularity (igraph_community_fastgreedy),
+// taking the dendrogram cut at Q_max. Uses the graph's edge weights.
+class GreedyModularityPartitioner : public GraphPartitioner {
+ public:
+  std::string Name() const override { return "greedy modularity (CNM)"; }
+  Result Partition(const WeightedGraph& graph) const override;
+};
+
+struct CommunityDetectionOptions {
+  // Split a (sub)graph only where its peak modularity exceeds this value.
+  double modularity_threshold = 0.3;
+
+  // Communities smaller than this are merged into a neighbouring community.
+  int min_community_size = 20;
+
+  // A (sub)graph holding more than this fraction of its connected component
+  // is split at its modularity peak even where the peak is below the
+  // threshold or a part of it is no community (max_part_conductance), if
+  // at least two of the parts reach min_community_size. The communities
+  // are reconstructed in parallel and the largest sets the pace, and the
+  // threshold alone can leave most of a scene in one community (after
+  // exhaustive matching nearly every pair is verified). A graph without
+  // community structure is cut where its edges are densest, which gives
+  // the merge strong links. The parts of such a split (and their parts)
+  // are not split by this rule again: a part whose own peak says it has no
+  // structure, cut anyway, can give a community that its mapper breaks into
+  // several models. 1: split by the threshold only, as the paper.
+  double max_community_fraction = 0.5;
+
+  // A split by the threshold is refused where one of its parts (counted
+  // with the parts under min_community_size that would join it) has a
+  // conductance above this within the split graph, i.e. more than this
+  // share of the weight of its edges' endpoints leads to its siblings. A
+  // chain of overlapping views reaches the threshold without community
+  // structure: on an open chain of landmark clusters the threshold alone
+  // cuts clusters in two and leaves short walkway pieces standing alone, so
+  // that images which belong together end up in models the merge must join
+  // again; clear splits, with few edges between their parts, still stand.
+  // 1: the threshold alone, as the paper.
+  double max_part_conductance = 0.3;
+
+  // A part above max_part_conductance that holds at most this fraction of
+  // the split graph does not refuse the split: it joins the sibling it has
+  // the most edge weight to (the worst first, until every part is within
+  // the bound). A short piece of walkway between two landmarks is no
+  // community of its own, but the landmarks are: refusing the split for it
+  // would keep two landmarks in one community. The default is small: a
+  // larger part with that much of its weight leading to its siblings, such
+  // as half of a landmark's cluster, is a community cut in two, and the
+  // split must be refused. 0: every such part refuses the split.
+  double max_joined_part_fraction = 0.1;
+
+  // Bound on the recursion depth, a guard against pathological inputs.
+  int max_recursion_depth = 32;
+
+  bool Check() const;
+};
+
+struct CommunityPartition {
+  // One record per attempted split, in the order they were attempted.
+  struct Split {
+    // Recursion depth (0: a whole connected component).
+    int depth = 0;
+    int num_vertices = 0;
+    int num_edges = 0;
+    // Peak modularity and the number of parts at the peak.
+    double modularity = 0.0;
+    int num_parts = 1;
+    // Where Qmax exceeds the threshold: the largest conductance of a part
+    // within the split graph (see max_part_conductance; 0 otherwise) and
+    // the number of small parts that joined a sibling for it.
+    double max_part_conductance = 0.0;
+    int num_joined_parts = 0;
+    // Whether the graph was split: modularity exceeded the threshold, or
+    // the graph held too large a share of its component (`balance`).
+    bool accepted = false;
+    bool balance = false;
+  };
+
+  // Community of each vertex: 0..NumCommunities()-1, largest first (ties by
+  // smallest vertex), -1 never occurs.
+  std::vector<int> membership;
+  std::vector<Split> splits;
+  // Number of connected components of the input graph.
+  int num_components = 0;
+  // Number of communities before small ones were merged.
+  int num_communities_before_merge = 0;
+
+  int NumCommunities() const;
+  // The vertices of each community, in ascending order.
+  std::vector<std::vector<int>> Communities() const;
+  // Largest peak modularity of any split (0 if none was attempted).
+  double MaxModularity() const;
+};
+
+// Partitions the graph by recursive splitting and merging of small
+// communities, as described at the top of this file.
+CommunityPartition DetectCommunities(const WeightedGraph& graph,
+                                     const GraphPartitioner& partitioner,
+                                     const CommunityDetectionOptions& options);
+
+// Extends every community by images of its neighbours, so that neighbouring
+// communities share some images and their reconstructions share points (an
+// extension of CSfM, which relies on cross edges alone; COLMAP's hierarchical
+// mapper overlaps its clusters too). For each pair of neighbouring
+// communities C and N, up to `num_overlap_images` images of N are added to C,
+// greedily: the next is the image of N with the most edges to C and the
+// images already added (ties: larger summed edge weight, then smaller
+// vertex), so that the additions grow from the border along the strongest
+// connections. Returns, per community, its vertices (its own first, in
+// ascending order, then the added ones).
+std::vector<std::vector<int>> ExtendCommunities(
+    const WeightedGraph& graph,
+    const CommunityPartition& partition,
+    int num_overlap_images);
+
+// Modularity Q of the given membership on the given graph (edge weights are
+// used), as defined at the top of this file.
+double ComputeModularity(const WeightedGraph& graph,
+                         const std::vector<int>& membership);
+
+}  // namespace colmap

@@ -1,0 +1,117 @@
+#include "colmap_ext/workflow/community_mapper_summary.h"
+
+#include "colmap/util/logging.h"
+#include "colmap/util/misc.h"
+#include "colmap/util/string.h"
+
+#include <algorithm>
+
+namespace colmap {
+
+std::string CommunityMapperSummaryToText(
+    const CommunityMapperSummary& summary) {
+  auto join = [](const auto& values) {
+    std::string text;
+    for (const auto& value : values) {
+      text += " " + std::to_string(value);
+    }
+    return text;
+  };
+  std::string text =
+      "# Figures of a community_mapper run (key value; seconds, MB)\n";
+  text +=
+      StringPrintf("num_view_graph_images %d\n", summary.num_view_graph_images);
+  text += StringPrintf("max_modularity %.4f\n", summary.max_modularity);
+  text += StringPrintf("num_communities %d\n",
+                       static_cast<int>(summary.community_sizes.size()));
+  text += "community_sizes" + join(summary.community_sizes) + "\n";
+  text +=
+      "extra_community_origins" + join(summary.extra_community_origins) + "\n";
+  text += "reconstructed_communities" +
+          join(summary.reconstructed_communities) + "\n";
+  text += "reused_communities" + join(summary.reused_communities) + "\n";
+  int num_excluded = 0;
+  for (const bool excluded : summary.community_excluded) {
+    num_excluded += excluded ? 1 : 0;
+  }
+  text += StringPrintf("num_excluded_communities %d\n", num_excluded);
+  text += StringPrintf("num_community_pairs %d\n", summary.num_community_pairs);
+  text += StringPrintf("num_estimated_similarities %d\n",
+                       summary.num_estimated_similarities);
+  text +=
+      StringPrintf("num_kept_similarities %d\n", summary.num_kept_similarities);
+  text += "model_num_registered" + join(summary.model_num_registered) + "\n";
+  for (const auto& phase : summary.phase_seconds) {
+    std::string name = StringReplace(phase.first, " ", "_");
+    std::transform(name.begin(), name.end(), name.begin(), ::tolower);
+    text += StringPrintf("phase_seconds %s %.3f\n", name.c_str(), phase.second);
+  }
+  text += StringPrintf("peak_memory_mb %.1f\n", summary.peak_memory_mb);
+  return text;
+}
+
+void LogCommunityMapperSummary(const CommunityMapperSummary& summary) {
+  LOG_HEADING1("Community mapper summary");
+  // (A merge that stopped early judged nothing.)
+  const auto left_the_merge = [&summary](const size_t c) {
+    return c < summary.community_excluded.size() &&
+                   summary.community_excluded[c]
+               ? ", left the merge"
+               : "";
+  };
+  for (size_t c = 0; c < summary.community_sizes.size() &&
+                     c < summary.community_reports.size();
+       ++c) {
+    const CommunityModelReport& report = summary.community_reports[c];
+    LOG(INFO) << StringPrintf(
+        "Community %d: %d images, %d registered%s%s",
+        static_cast<int>(c),
+        summary.community_sizes[c],
+        report.num_registered,
+        report.num_models > 1 ? " (largest of several models)" : "",
+        left_the_merge(c));
+  }
+  for (size_t e = 0; e < summary.extra_community_origins.size(); ++e) {
+    const size_t c = summary.community_sizes.size() + e;
+    LOG(INFO) << StringPrintf(
+        "Community %d (model %d of community %d): %d registered%s",
+        static_cast<int>(c),
+        summary.community_reports[c].model_index,
+        summary.extra_community_origins[e],
+        summary.community_reports[c].num_registered,
+        left_the_merge(c));
+  }
+  LOG(INFO) << StringPrintf(
+      "Community pairs: %d joined by view-graph edges, %d with a similarity, "
+      "%d kept, %d dropped",
+      summary.num_community_pairs,
+      summary.num_estimated_similarities,
+      summary.num_kept_similarities,
+      summary.num_estimated_similarities - summary.num_kept_similarities);
+  if (!summary.reused_communities.empty()) {
+    std::string ids;
+    for (const int c : summary.reused_communities) {
+      ids += " " + std::to_string(c);
+    }
+    LOG(INFO) << "Communities reused from an earlier run of this plan:" << ids;
+  }
+  int num_registered = 0;
+  for (size_t m = 0; m < summary.model_num_registered.size(); ++m) {
+    LOG(INFO) << StringPrintf("Model %d: %d images",
+                              static_cast<int>(m),
+                              summary.model_num_registered[m]);
+    num_registered += summary.model_num_registered[m];
+  }
+  LOG(INFO) << StringPrintf(
+      "Registered %d of %d images in %d model(s)",
+      num_registered,
+      summary.num_view_graph_images,
+      static_cast<int>(summary.model_num_registered.size()));
+  for (const auto& phase : summary.phase_seconds) {
+    LOG(INFO) << StringPrintf(
+        "Time %-28s %9.3fs", (phase.first + ":").c_str(), phase.second);
+  }
+  LOG(INFO) << StringPrintf("Peak memory: %.0f MB", summary.peak_memory_mb);
+}
+
+}  // namespace colmap
