@@ -11,7 +11,9 @@ GlobalMapperOptions MergedModelRefinementOptions(
   GlobalMapperOptions options;
   options.num_threads = mapper_options.num_threads;
   options.random_seed = mapper_options.random_seed;
-  options.refine_sensor_from_rig = mapper_options.ba_refine_sensor_from_rig;
+  // GlobalMapper holds rigs all or none: a rig the user holds holds them all.
+  options.refine_sensor_from_rig = mapper_options.ba_refine_sensor_from_rig &&
+                                   mapper_options.constant_rigs.empty();
   BundleAdjustmentOptions& ba = options.bundle_adjustment;
   ba.refine_focal_length = mapper_options.ba_refine_focal_length;
   ba.refine_principal_point = mapper_options.ba_refine_principal_point;
