@@ -66,6 +66,72 @@ RelativeSimilarity ToRelativeSimilarity(const int community1,
   return relative;
 }
 
+// Images on the border that both models registered: each of their
+// keypoints with a 3D point in both is a correspondence.
+std::vector<CrossPairMatches> SharedImageMatches(const Reconstruction& model1,
+                                                 const Reconstruction& model2) {
+  std::vector<CrossPairMatches> cross_pairs;
+  for (const image_t image_id : model1.RegImageIds()) {
+    if (model2.ExistsImage(image_id) && model2.Image(image_id).HasPose()) {
+      CrossPairMatches shared;
+      shared.image_id1 = image_id;
+      shared.image_id2 = image_id;
+      for (point2D_t idx = 0; idx < model1.Image(image_id).NumPoints2D();
+           ++idx) {
+        shared.matches.emplace_back(idx, idx);
+      }
+      cross_pairs.push_back(std::move(shared));
+    }
+  }
+  return cross_pairs;
+}
+
+// The cross pairs whose linked points mostly supported rejected transforms
+// are false (left in the refinement, the matches between two identical
+// towers become tracks that tie each point of one tower to its twin on the
+// other and bend the merged model), each also recorded with the rejected
+// transform it mostly supports (ResidualsAgainstMerge). Each rejected
+// transform is estimated from the outliers of those before it
+// (EstimatePairwiseSimilarity), so their inliers are disjoint and a pair's
+// points supporting any of them are the sum of those supporting each.
+void RecordFalseCrossPairs(const Reconstruction& model1,
+                           const Reconstruction& model2,
+                           const std::vector<CrossPairMatches>& cross_pairs,
+                           const size_t num_shared_images,
+                           PairOutcome* outcome) {
+  if (outcome->rejected.empty()) {
+    return;
+  }
+  std::vector<std::set<std::pair<point3D_t, point3D_t>>>
+      rejected_inliers_by_transform;
+  for (const RejectedSimilarity& rejected_similarity : outcome->rejected) {
+    rejected_inliers_by_transform.emplace_back(
+        rejected_similarity.similarity.point3D_ids.begin(),
+        rejected_similarity.similarity.point3D_ids.end());
+  }
+  for (size_t k = num_shared_images; k < cross_pairs.size(); ++k) {
+    const PointCorrespondences pair_points =
+        FindPointCorrespondences(model1, model2, {cross_pairs[k]});
+    const image_pair_t pair_id =
+        ImagePairToPairId(cross_pairs[k].image_id1, cross_pairs[k].image_id2);
+    size_t num_rejected_points = 0;
+    for (size_t j = 0; j < outcome->rejected.size(); ++j) {
+      size_t num_supporting = 0;
+      for (size_t i = 0; i < pair_points.Size(); ++i) {
+        num_supporting += rejected_inliers_by_transform[j].count(
+            {pair_points.point3D_ids1[i], pair_points.point3D_ids2[i]});
+      }
+      if (2 * num_supporting > pair_points.Size()) {
+        outcome->rejected[j].pairs.push_back(pair_id);
+      }
+      num_rejected_points += num_supporting;
+    }
+    if (2 * num_rejected_points > pair_points.Size()) {
+      outcome->false_pairs.push_back(pair_id);
+    }
+  }
+}
+
 // The similarity of communities 1 and 2 from the images both models
 // registered and the matches of their cross edges (read from `database`
 // under `database_mutex`). RANSAC draws from a seed of the pair's own, so
@@ -88,21 +154,8 @@ PairOutcome EstimatePairSimilarity(
                   ImagePairToPairId(static_cast<image_t>(community1 + 1),
                                     static_cast<image_t>(community2 + 1))));
   PairOutcome outcome;
-  // Images on the border that both models registered: each of their
-  // keypoints with a 3D point in both is a correspondence.
-  std::vector<CrossPairMatches> cross_pairs;
-  for (const image_t image_id : model1.RegImageIds()) {
-    if (model2.ExistsImage(image_id) && model2.Image(image_id).HasPose()) {
-      CrossPairMatches shared;
-      shared.image_id1 = image_id;
-      shared.image_id2 = image_id;
-      for (point2D_t idx = 0; idx < model1.Image(image_id).NumPoints2D();
-           ++idx) {
-        shared.matches.emplace_back(idx, idx);
-      }
-      cross_pairs.push_back(std::move(shared));
-    }
-  }
+  std::vector<CrossPairMatches> cross_pairs =
+      SharedImageMatches(model1, model2);
   const size_t num_shared_images = cross_pairs.size();
   {
     std::lock_guard<std::mutex> lock(*database_mutex);
@@ -197,44 +250,7 @@ PairOutcome EstimatePairSimilarity(
       : num_rejected > 0 ? "no transform explains the matches, not used"
                          : "too little support, not used");
 
-  // The cross pairs whose linked points mostly supported rejected transforms
-  // are false (left in the refinement, the matches between two identical
-  // towers become tracks that tie each point of one tower to its twin on the
-  // other and bend the merged model), each also recorded with the rejected
-  // transform it mostly supports (ResidualsAgainstMerge). Each rejected
-  // transform is estimated from the outliers of those before it
-  // (EstimatePairwiseSimilarity), so their inliers are disjoint and a pair's
-  // points supporting any of them are the sum of those supporting each.
-  if (!outcome.rejected.empty()) {
-    std::vector<std::set<std::pair<point3D_t, point3D_t>>>
-        rejected_inliers_by_transform;
-    for (const RejectedSimilarity& rejected_similarity : outcome.rejected) {
-      rejected_inliers_by_transform.emplace_back(
-          rejected_similarity.similarity.point3D_ids.begin(),
-          rejected_similarity.similarity.point3D_ids.end());
-    }
-    for (size_t k = num_shared_images; k < cross_pairs.size(); ++k) {
-      const PointCorrespondences pair_points =
-          FindPointCorrespondences(model1, model2, {cross_pairs[k]});
-      const image_pair_t pair_id =
-          ImagePairToPairId(cross_pairs[k].image_id1, cross_pairs[k].image_id2);
-      size_t num_rejected_points = 0;
-      for (size_t j = 0; j < outcome.rejected.size(); ++j) {
-        size_t num_supporting = 0;
-        for (size_t i = 0; i < pair_points.Size(); ++i) {
-          num_supporting += rejected_inliers_by_transform[j].count(
-              {pair_points.point3D_ids1[i], pair_points.point3D_ids2[i]});
-        }
-        if (2 * num_supporting > pair_points.Size()) {
-          outcome.rejected[j].pairs.push_back(pair_id);
-        }
-        num_rejected_points += num_supporting;
-      }
-      if (2 * num_rejected_points > pair_points.Size()) {
-        outcome.false_pairs.push_back(pair_id);
-      }
-    }
-  }
+  RecordFalseCrossPairs(model1, model2, cross_pairs, num_shared_images, &outcome);
   if (!similarity.success) {
     return outcome;
   }

@@ -422,35 +422,16 @@ int SimilarityAveragingResult::NumParts() const {
                                      part_of_community.end());
 }
 
-SimilarityAveragingResult AverageSimilarities(
-    const std::vector<AveragedCommunity>& communities,
+namespace {
+
+// The weights of the edges in the averaging, in [1 - kWeightRange, 1]: their
+// order decides where a cycle's disagreement goes, while around every
+// community a majority of right edges still outweighs a minority of wrong
+// ones, as L1 needs.
+std::vector<double> EdgeWeights(
+    const std::vector<double>& community_weights,
     const std::vector<RelativeSimilarity>& relative_similarities,
     const SimilarityAveragingOptions& options) {
-  THROW_CHECK(options.Check());
-  const int num_communities = static_cast<int>(communities.size());
-  for (const RelativeSimilarity& edge : relative_similarities) {
-    THROW_CHECK_GE(edge.community1, 0);
-    THROW_CHECK_LT(edge.community1, num_communities);
-    THROW_CHECK_GE(edge.community2, 0);
-    THROW_CHECK_LT(edge.community2, num_communities);
-    THROW_CHECK_NE(edge.community1, edge.community2);
-    THROW_CHECK_GT(edge.second_from_first.scale(), 0);
-    THROW_CHECK(!edge.points1.empty());
-    THROW_CHECK_EQ(edge.points1.size(), edge.points2.size());
-  }
-
-  // Confidence of communities and edges.
-  std::vector<double> community_weights(num_communities);
-  std::vector<int> sizes;
-  for (int c = 0; c < num_communities; ++c) {
-    community_weights[c] = std::max(1, communities[c].num_images);
-    sizes.push_back(communities[c].num_images);
-  }
-  const double median_size =
-      sizes.empty() ? 0.0 : static_cast<double>(Median(sizes));
-  // Edge weights lie in [1 - kWeightRange, 1]: their order decides where a
-  // cycle's disagreement goes, while around every community a majority of
-  // right edges still outweighs a minority of wrong ones, as L1 needs.
   constexpr double kWeightRange = 0.4;
   std::vector<double> edge_weights(relative_similarities.size());
   double max_weight = 0;
@@ -471,37 +452,51 @@ SimilarityAveragingResult AverageSimilarities(
     weight = 1 - kWeightRange +
              kWeightRange * (max_weight > 0 ? weight / max_weight : 1);
   }
+  return edge_weights;
+}
 
+// The state the rounds of the averaging share: its input, the edges' weights
+// and the result so far.
+struct AveragingRounds {
+  const std::vector<AveragedCommunity>& communities;
+  const std::vector<RelativeSimilarity>& relative_similarities;
+  const SimilarityAveragingOptions& options;
+  std::vector<double> community_weights;
+  std::vector<double> edge_weights;
   SimilarityAveragingResult result;
-  result.world_from_community.assign(num_communities, Sim3d());
-  result.edges.resize(relative_similarities.size());
-  result.excluded.assign(num_communities, false);
-  for (size_t e = 0; e < relative_similarities.size(); ++e) {
-    const RelativeSimilarity& edge = relative_similarities[e];
-    result.edges[e].contradicted =
-        IsEdgeInDoubt(edge, options) &&
-        NumSharedImagesPlacedElsewhere(edge) >= edge.num_agreeing_shared_images;
-    result.edges[e].kept = !result.edges[e].contradicted;
+
+  // Per round: the connected parts over the kept edges, each part's label
+  // (its communities' component), the averaged parts by label and the edges
+  // beyond the bound that their shared images confirm.
+  std::vector<std::vector<int>> parts;
+  std::vector<int> component;
+  std::map<int, AveragedPart> averaged_parts;
+  std::unordered_set<const RelativeSimilarity*> deferred;
+
+  int NumCommunities() const { return static_cast<int>(communities.size()); }
+
+  std::vector<std::pair<int, int>> KeptEdges(const size_t skip) const {
+    std::vector<std::pair<int, int>> kept_edges;
+    for (size_t e = 0; e < relative_similarities.size(); ++e) {
+      if (e != skip && result.edges[e].kept) {
+        kept_edges.emplace_back(relative_similarities[e].community1,
+                                relative_similarities[e].community2);
+      }
+    }
+    return kept_edges;
   }
 
   // Whether no other kept edge joins the communities of edge e, directly or
   // through others: e lies on no cycle of kept edges.
-  const auto IsBridge = [&](const size_t e) {
-    std::vector<std::pair<int, int>> other_edges;
-    for (size_t f = 0; f < relative_similarities.size(); ++f) {
-      if (f != e && result.edges[f].kept) {
-        other_edges.emplace_back(relative_similarities[f].community1,
-                                 relative_similarities[f].community2);
-      }
-    }
+  bool IsBridge(const size_t e) const {
     const std::vector<int> labels =
-        ConnectedComponentLabels(num_communities, other_edges);
+        ConnectedComponentLabels(NumCommunities(), KeptEdges(e));
     return labels[relative_similarities[e].community1] !=
            labels[relative_similarities[e].community2];
-  };
+  }
 
-  const auto CountKeptEdges = [&]() {
-    std::vector<int> num_kept_edges(num_communities, 0);
+  std::vector<int> CountKeptEdges() const {
+    std::vector<int> num_kept_edges(NumCommunities(), 0);
     for (size_t e = 0; e < relative_similarities.size(); ++e) {
       if (result.edges[e].kept) {
         ++num_kept_edges[relative_similarities[e].community1];
@@ -509,29 +504,16 @@ SimilarityAveragingResult AverageSimilarities(
       }
     }
     return num_kept_edges;
-  };
+  }
 
-  // Rejecting one edge per part and round takes up to one round per edge.
-  const int max_num_rounds =
-      options.reject_worst_first && options.max_num_rejection_rounds > 0
-          ? std::max(options.max_num_rejection_rounds,
-                     static_cast<int>(relative_similarities.size()))
-          : options.max_num_rejection_rounds;
-  std::vector<std::vector<int>> parts;
-  for (int round = 0;; ++round) {
-    // Connected parts over the kept edges.
-    std::vector<std::pair<int, int>> kept_edges;
-    for (size_t e = 0; e < relative_similarities.size(); ++e) {
-      if (result.edges[e].kept) {
-        kept_edges.emplace_back(relative_similarities[e].community1,
-                                relative_similarities[e].community2);
-      }
-    }
-    const std::vector<int> component =
-        ConnectedComponentLabels(num_communities, kept_edges);
+  // Connected parts over the kept edges, in the order of their smallest
+  // community.
+  void FindParts() {
+    component = ConnectedComponentLabels(
+        NumCommunities(), KeptEdges(relative_similarities.size()));
     parts.clear();
-    std::map<int, size_t> part_of_label;  // Parts by smallest community.
-    for (int node = 0; node < num_communities; ++node) {
+    std::map<int, size_t> part_of_label;
+    for (int node = 0; node < NumCommunities(); ++node) {
       const auto it =
           part_of_label.emplace(component[node], parts.size()).first;
       if (it->second == parts.size()) {
@@ -539,12 +521,15 @@ SimilarityAveragingResult AverageSimilarities(
       }
       parts[it->second].push_back(node);
     }
+  }
 
-    // A part whose averaging fails loses its edges; the next round splits it.
+  // Averages every part from its largest community. A part whose averaging
+  // fails loses its edges (the next round splits it): returns false then.
+  bool AverageParts() {
     bool failed = false;
-    std::unordered_set<const RelativeSimilarity*> deferred;
-    std::map<int, AveragedPart> averaged_parts;  // By the parts' labels.
-    for (std::vector<int>& nodes : parts) {
+    deferred.clear();
+    averaged_parts.clear();
+    for (const std::vector<int>& nodes : parts) {
       int reference = nodes.front();
       for (const int node : nodes) {
         if (communities[node].num_images > communities[reference].num_images) {
@@ -598,15 +583,16 @@ SimilarityAveragingResult AverageSimilarities(
         deferred.insert(deferred_edges.begin(), deferred_edges.end());
       }
     }
+    return !failed;
+  }
 
-    // Residuals of the kept edges; reject the large ones, and with each the
-    // weaker community if it cannot be trusted on its own.
-    std::vector<int> to_exclude;
-    bool rejected = false;
-    // With reject_worst_first, the edge furthest beyond the bound in each
-    // part (by its reference's label): displacement and index.
-    std::map<int, std::pair<double, size_t>> worst_of_part;
-    std::map<int, int> num_beyond_bound;  // By the parts' labels.
+  // The kept edges beyond the bound that this round rejects: every one
+  // whose displacement is not finite, and with reject_worst_first the worst
+  // of each part, unless it is its part's only one and the other links
+  // place its points within the bound (the cycle's gap).
+  std::vector<size_t> EdgesToReject(const bool last_round) {
+    std::map<int, std::pair<double, size_t>> worst_of_part;  // By label.
+    std::map<int, int> num_beyond_bound;                     // By label.
     std::vector<size_t> to_reject;
     for (size_t e = 0; e < relative_similarities.size(); ++e) {
       if (!result.edges[e].kept) {
@@ -621,19 +607,18 @@ SimilarityAveragingResult AverageSimilarities(
       }
       // A bridge is placed by its own similarity alone: its displacement is
       // its own fit's residual, no other edge's disagreement, and the bridge
-      // rule below judges it. It is no cycle's link, so it does not count
-      // among its part's links beyond the bound either.
+      // rule judges it. It is no cycle's link, so it does not count among
+      // its part's links beyond the bound either.
       const bool finite = std::isfinite(displacement);
       if (finite && IsBridge(e)) {
         continue;
       }
       const int label = component[edge.community1];
       ++num_beyond_bound[label];
-      // A non-finite displacement is rejected in any round. An edge beyond
-      // the bound that its shared images confirm waits while unconfirmed
-      // ones of its part go (SpreadCycleDrift).
+      // An edge beyond the bound that its shared images confirm waits while
+      // unconfirmed ones of its part go (SpreadCycleDrift).
       const bool waits = finite && deferred.count(&edge) > 0;
-      if (waits || (round >= max_num_rounds && finite)) {
+      if (waits || (last_round && finite)) {
         continue;
       }
       if (!finite || !options.reject_worst_first) {
@@ -671,9 +656,17 @@ SimilarityAveragingResult AverageSimilarities(
       }
       to_reject.push_back(worst.second);
     }
+    return to_reject;
+  }
+
+  // Rejects the edges beyond the bound, and with each the weaker community
+  // if it is small and cannot be trusted on its own. Returns whether any
+  // edge went.
+  bool RejectEdges(const bool last_round, const double median_size) {
+    const std::vector<size_t> to_reject = EdgesToReject(last_round);
+    std::vector<int> to_exclude;
     for (const size_t e : to_reject) {
       result.edges[e].kept = false;
-      rejected = true;
       const int community1 = relative_similarities[e].community1;
       const int community2 = relative_similarities[e].community2;
       const int weaker =
@@ -705,17 +698,17 @@ SimilarityAveragingResult AverageSimilarities(
         }
       }
     }
-    if (rejected || failed) {
-      continue;
-    }
+    return !to_reject.empty();
+  }
 
-    // Edges that no cycle of kept edges checks (bridges): the averaging fits
-    // them as they are, right or wrong. The images both models registered
-    // must confirm such an edge (see below). Two sound communities can be
-    // joined by wrong matches alone: their similarity then rests on few
-    // inliers among many correspondences and on no shared image, and it can
-    // still pass the co-visibility check; kept, it misplaces the whole weaker
-    // community.
+  // Edges that no cycle of kept edges checks (bridges): the averaging fits
+  // them as they are, right or wrong, so the images both models registered
+  // must confirm such an edge. Two sound communities can be joined by wrong
+  // matches alone: their similarity then rests on few inliers among many
+  // correspondences and on no shared image, and it can still pass the
+  // co-visibility check; kept, it misplaces the whole weaker community.
+  // Returns whether a bridge was dropped.
+  bool DropUnconfirmedBridges() {
     bool dropped_bridge = false;
     for (size_t e = 0; e < relative_similarities.size(); ++e) {
       const RelativeSimilarity& edge = relative_similarities[e];
@@ -741,32 +734,95 @@ SimilarityAveragingResult AverageSimilarities(
         dropped_bridge = true;
       }
     }
-    if (!dropped_bridge) {
+    return dropped_bridge;
+  }
+
+  // Numbers the parts by total size, largest first (ties: smallest
+  // community).
+  void NumberParts() {
+    const auto PartSize = [&](const std::vector<int>& nodes) {
+      int size = 0;
+      for (const int node : nodes) {
+        size += communities[node].num_images;
+      }
+      return size;
+    };
+    std::stable_sort(parts.begin(),
+                     parts.end(),
+                     [&](const std::vector<int>& a, const std::vector<int>& b) {
+                       return PartSize(a) > PartSize(b);
+                     });
+    result.part_of_community.assign(NumCommunities(), -1);
+    for (size_t p = 0; p < parts.size(); ++p) {
+      for (const int node : parts[p]) {
+        result.part_of_community[node] = static_cast<int>(p);
+      }
+    }
+  }
+};
+
+}  // namespace
+
+SimilarityAveragingResult AverageSimilarities(
+    const std::vector<AveragedCommunity>& communities,
+    const std::vector<RelativeSimilarity>& relative_similarities,
+    const SimilarityAveragingOptions& options) {
+  THROW_CHECK(options.Check());
+  const int num_communities = static_cast<int>(communities.size());
+  for (const RelativeSimilarity& edge : relative_similarities) {
+    THROW_CHECK_GE(edge.community1, 0);
+    THROW_CHECK_LT(edge.community1, num_communities);
+    THROW_CHECK_GE(edge.community2, 0);
+    THROW_CHECK_LT(edge.community2, num_communities);
+    THROW_CHECK_NE(edge.community1, edge.community2);
+    THROW_CHECK_GT(edge.second_from_first.scale(), 0);
+    THROW_CHECK(!edge.points1.empty());
+    THROW_CHECK_EQ(edge.points1.size(), edge.points2.size());
+  }
+
+  AveragingRounds rounds{communities, relative_similarities, options};
+  std::vector<int> sizes;
+  for (const AveragedCommunity& community : communities) {
+    rounds.community_weights.push_back(std::max(1, community.num_images));
+    sizes.push_back(community.num_images);
+  }
+  const double median_size =
+      sizes.empty() ? 0.0 : static_cast<double>(Median(sizes));
+  rounds.edge_weights =
+      EdgeWeights(rounds.community_weights, relative_similarities, options);
+
+  SimilarityAveragingResult& result = rounds.result;
+  result.world_from_community.assign(num_communities, Sim3d());
+  result.edges.resize(relative_similarities.size());
+  result.excluded.assign(num_communities, false);
+  for (size_t e = 0; e < relative_similarities.size(); ++e) {
+    const RelativeSimilarity& edge = relative_similarities[e];
+    result.edges[e].contradicted =
+        IsEdgeInDoubt(edge, options) &&
+        NumSharedImagesPlacedElsewhere(edge) >= edge.num_agreeing_shared_images;
+    result.edges[e].kept = !result.edges[e].contradicted;
+  }
+
+  // Rejecting one edge per part and round takes up to one round per edge.
+  const int max_num_rounds =
+      options.reject_worst_first && options.max_num_rejection_rounds > 0
+          ? std::max(options.max_num_rejection_rounds,
+                     static_cast<int>(relative_similarities.size()))
+          : options.max_num_rejection_rounds;
+  for (int round = 0;; ++round) {
+    rounds.FindParts();
+    const bool averaged = rounds.AverageParts();
+    const bool rejected =
+        rounds.RejectEdges(/*last_round=*/round >= max_num_rounds, median_size);
+    if (rejected || !averaged) {
+      continue;
+    }
+    if (!rounds.DropUnconfirmedBridges()) {
       break;
     }
   }
-
-  // Parts by total size, largest first (ties: smallest community).
-  std::stable_sort(parts.begin(),
-                   parts.end(),
-                   [&](const std::vector<int>& a, const std::vector<int>& b) {
-                     int size_a = 0;
-                     int size_b = 0;
-                     for (const int node : a) {
-                       size_a += communities[node].num_images;
-                     }
-                     for (const int node : b) {
-                       size_b += communities[node].num_images;
-                     }
-                     return size_a > size_b;
-                   });
-  result.part_of_community.assign(num_communities, -1);
-  for (size_t p = 0; p < parts.size(); ++p) {
-    for (const int node : parts[p]) {
-      result.part_of_community[node] = static_cast<int>(p);
-    }
-  }
-  return result;
+  rounds.NumberParts();
+  return std::move(rounds.result);
 }
 
 }  // namespace colmap

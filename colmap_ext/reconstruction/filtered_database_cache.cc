@@ -44,18 +44,13 @@ void ConvertPosePriorsToENU(std::vector<PosePrior>* pose_priors) {
   }
 }
 
-}  // namespace
-
-std::shared_ptr<DatabaseCache> CreateFilteredDatabaseCache(
-    const Database& database,
-    const DatabaseCache::Options& options,
-    const std::function<bool(image_t, image_t)>& use_image_pair) {
-  Timer timer;
-  timer.Start();
-  auto cache = std::make_shared<DatabaseCache>();
-
-  // Rigs and cameras, all of them; a database without rigs has one rig per
-  // camera, with the camera's id.
+// Reads all rigs and cameras into `cache`, and all frames and images; a
+// database without rigs has one rig per camera, with the camera's id, and
+// one without frames one frame per image, with the image's id.
+void ReadRigsCamerasAndFrames(const Database& database,
+                              DatabaseCache* cache,
+                              std::unordered_map<frame_t, Frame>* frames,
+                              std::vector<Image>* images) {
   const bool has_rigs = database.NumRigs() > 0;
   const bool has_frames = database.NumFrames() > 0;
   for (Rig& rig : database.ReadAllRigs()) {
@@ -71,19 +66,14 @@ std::shared_ptr<DatabaseCache> CreateFilteredDatabaseCache(
     cache->AddCamera(std::move(camera));
   }
 
-  // Frames; a database without frames has one frame per image, with the
-  // image's id, in the rig of its camera.
-  std::unordered_map<frame_t, Frame> frames;
   if (has_frames) {
     for (Frame& frame : database.ReadAllFrames()) {
       const frame_t frame_id = frame.FrameId();
-      frames.emplace(frame_id, std::move(frame));
+      frames->emplace(frame_id, std::move(frame));
     }
   }
-  std::vector<Image> images = database.ReadAllImages();
-  std::unordered_map<image_t, frame_t> frame_of_image;
-  frame_of_image.reserve(images.size());
-  for (Image& image : images) {
+  *images = database.ReadAllImages();
+  for (Image& image : *images) {
     if (has_frames) {
       THROW_CHECK(image.HasFrameId());
     } else {
@@ -93,23 +83,21 @@ std::shared_ptr<DatabaseCache> CreateFilteredDatabaseCache(
       frame.SetRigId(image.CameraId());
       frame.AddDataId(image.DataId());
       image.SetFrameId(frame_id);
-      frames.emplace(frame_id, std::move(frame));
-    }
-    frame_of_image.emplace(image.ImageId(), image.FrameId());
-  }
-
-  // The frames asked for: those holding one of `image_names` (a frame's
-  // images stay together), or all.
-  std::unordered_set<frame_t> selected_frame_ids;
-  for (const Image& image : images) {
-    if (options.image_names.empty() ||
-        options.image_names.count(image.Name()) > 0) {
-      selected_frame_ids.insert(image.FrameId());
+      frames->emplace(frame_id, std::move(frame));
     }
   }
+}
 
-  // The pairs in use, by their inlier counts, then (for the watermark check)
-  // their configuration.
+// The pairs in use between the selected frames, by their inlier counts,
+// then (for the watermark check) their configuration: the geometries read
+// for that check are returned in `two_view_geometries`.
+std::vector<image_pair_t> SelectImagePairs(
+    const Database& database,
+    const DatabaseCache::Options& options,
+    const std::function<bool(image_t, image_t)>& use_image_pair,
+    const std::unordered_set<frame_t>& selected_frame_ids,
+    const std::unordered_map<image_t, frame_t>& frame_of_image,
+    std::vector<TwoViewGeometry>* two_view_geometries) {
   std::vector<image_pair_t> pair_ids;
   for (const auto& [pair_id, num_inliers] :
        database.ReadTwoViewGeometryNumInliers()) {
@@ -124,7 +112,6 @@ std::shared_ptr<DatabaseCache> CreateFilteredDatabaseCache(
     }
     pair_ids.push_back(pair_id);
   }
-  std::vector<TwoViewGeometry> two_view_geometries;
   if (options.ignore_watermarks) {
     size_t num_kept = 0;
     for (const image_pair_t pair_id : pair_ids) {
@@ -133,11 +120,51 @@ std::shared_ptr<DatabaseCache> CreateFilteredDatabaseCache(
           database.ReadTwoViewGeometry(image_id1, image_id2);
       if (two_view_geometry.config != TwoViewGeometry::WATERMARK) {
         pair_ids[num_kept++] = pair_id;
-        two_view_geometries.push_back(std::move(two_view_geometry));
+        two_view_geometries->push_back(std::move(two_view_geometry));
       }
     }
     pair_ids.resize(num_kept);
   }
+  return pair_ids;
+}
+
+}  // namespace
+
+std::shared_ptr<DatabaseCache> CreateFilteredDatabaseCache(
+    const Database& database,
+    const DatabaseCache::Options& options,
+    const std::function<bool(image_t, image_t)>& use_image_pair) {
+  Timer timer;
+  timer.Start();
+  auto cache = std::make_shared<DatabaseCache>();
+
+  std::unordered_map<frame_t, Frame> frames;
+  std::vector<Image> images;
+  ReadRigsCamerasAndFrames(database, cache.get(), &frames, &images);
+  std::unordered_map<image_t, frame_t> frame_of_image;
+  frame_of_image.reserve(images.size());
+  for (const Image& image : images) {
+    frame_of_image.emplace(image.ImageId(), image.FrameId());
+  }
+
+  // The frames asked for: those holding one of `image_names` (a frame's
+  // images stay together), or all.
+  std::unordered_set<frame_t> selected_frame_ids;
+  for (const Image& image : images) {
+    if (options.image_names.empty() ||
+        options.image_names.count(image.Name()) > 0) {
+      selected_frame_ids.insert(image.FrameId());
+    }
+  }
+
+  std::vector<TwoViewGeometry> two_view_geometries;
+  const std::vector<image_pair_t> pair_ids =
+      SelectImagePairs(database,
+                       options,
+                       use_image_pair,
+                       selected_frame_ids,
+                       frame_of_image,
+                       &two_view_geometries);
 
   // The frames loaded: those a pair in use connects, or all asked for.
   std::unordered_set<frame_t> loaded_frame_ids;
