@@ -250,7 +250,8 @@ PairOutcome EstimatePairSimilarity(
       : num_rejected > 0 ? "no transform explains the matches, not used"
                          : "too little support, not used");
 
-  RecordFalseCrossPairs(model1, model2, cross_pairs, num_shared_images, &outcome);
+  RecordFalseCrossPairs(
+      model1, model2, cross_pairs, num_shared_images, &outcome);
   if (!similarity.success) {
     return outcome;
   }

@@ -462,6 +462,7 @@ struct AveragingRounds {
   const std::vector<RelativeSimilarity>& relative_similarities;
   const SimilarityAveragingOptions& options;
   std::vector<double> community_weights;
+  double median_size = 0;
   std::vector<double> edge_weights;
   SimilarityAveragingResult result;
 
@@ -475,7 +476,9 @@ struct AveragingRounds {
 
   int NumCommunities() const { return static_cast<int>(communities.size()); }
 
-  std::vector<std::pair<int, int>> KeptEdges(const size_t skip) const {
+  // The kept edges' communities, but for edge `skip`.
+  std::vector<std::pair<int, int>> KeptEdges(
+      const size_t skip = std::numeric_limits<size_t>::max()) const {
     std::vector<std::pair<int, int>> kept_edges;
     for (size_t e = 0; e < relative_similarities.size(); ++e) {
       if (e != skip && result.edges[e].kept) {
@@ -509,8 +512,7 @@ struct AveragingRounds {
   // Connected parts over the kept edges, in the order of their smallest
   // community.
   void FindParts() {
-    component = ConnectedComponentLabels(
-        NumCommunities(), KeptEdges(relative_similarities.size()));
+    component = ConnectedComponentLabels(NumCommunities(), KeptEdges());
     parts.clear();
     std::map<int, size_t> part_of_label;
     for (int node = 0; node < NumCommunities(); ++node) {
@@ -615,8 +617,9 @@ struct AveragingRounds {
       }
       const int label = component[edge.community1];
       ++num_beyond_bound[label];
-      // An edge beyond the bound that its shared images confirm waits while
-      // unconfirmed ones of its part go (SpreadCycleDrift).
+      // A non-finite displacement is rejected in any round. An edge beyond
+      // the bound that its shared images confirm waits while unconfirmed
+      // ones of its part go (SpreadCycleDrift).
       const bool waits = finite && deferred.count(&edge) > 0;
       if (waits || (last_round && finite)) {
         continue;
@@ -662,7 +665,7 @@ struct AveragingRounds {
   // Rejects the edges beyond the bound, and with each the weaker community
   // if it is small and cannot be trusted on its own. Returns whether any
   // edge went.
-  bool RejectEdges(const bool last_round, const double median_size) {
+  bool RejectEdges(const bool last_round) {
     const std::vector<size_t> to_reject = EdgesToReject(last_round);
     std::vector<int> to_exclude;
     for (const size_t e : to_reject) {
@@ -786,8 +789,7 @@ SimilarityAveragingResult AverageSimilarities(
     rounds.community_weights.push_back(std::max(1, community.num_images));
     sizes.push_back(community.num_images);
   }
-  const double median_size =
-      sizes.empty() ? 0.0 : static_cast<double>(Median(sizes));
+  rounds.median_size = sizes.empty() ? 0.0 : static_cast<double>(Median(sizes));
   rounds.edge_weights =
       EdgeWeights(rounds.community_weights, relative_similarities, options);
 
@@ -813,7 +815,7 @@ SimilarityAveragingResult AverageSimilarities(
     rounds.FindParts();
     const bool averaged = rounds.AverageParts();
     const bool rejected =
-        rounds.RejectEdges(/*last_round=*/round >= max_num_rounds, median_size);
+        rounds.RejectEdges(/*last_round=*/round >= max_num_rounds);
     if (rejected || !averaged) {
       continue;
     }
