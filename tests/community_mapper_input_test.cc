@@ -221,12 +221,6 @@ TEST_F(CommunityMapperInputTest, InvalidOptionValues) {
                 "--CommunityMapper.image_overlap -1",
                 "image_overlap is -1");
   ExpectRefusal(good_database_,
-                "--CommunityMapper.community_ba_function_tolerance -2",
-                "community_ba_function_tolerance is -2");
-  ExpectRefusal(good_database_,
-                "--CommunityMapper.community_ba_global_ratio 1",
-                "community_ba_global_ratio is 1: it must be greater than 1");
-  ExpectRefusal(good_database_,
                 "--CommunityMapper.pairwise_min_num_inliers 2",
                 "--CommunityMapper.pairwise_min_num_inliers is 2: it must be "
                 "at least 3");

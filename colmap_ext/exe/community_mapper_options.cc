@@ -61,12 +61,6 @@ std::vector<CommunityMapperOption> CommunityMapperOptionTable(
       {"num_workers",
        &mapper.num_workers,
        "communities reconstructed at once (-1: one per CPU core)"},
-      {"merge_other_models",
-       &merge.merge_other_models,
-       "where a community's mapper made several models, the others holding "
-       "at least Mapper.min_model_size of its own images take part in the "
-       "merge as extra communities (0: their images are registered one by "
-       "one)"},
       {"skip_global_refinement",
        &merge.skip_global_refinement,
        "the merge's stage 3 off: each part's joined model goes to the "
@@ -102,17 +96,9 @@ std::vector<CommunityMapperOption> CommunityMapperOptionTable(
        kAdvanced},
       {"community_ba_function_tolerance",
        &mapper.community_ba_function_tolerance,
-       "relative function tolerance of the communities' global bundle "
-       "adjustments (-1: Mapper.ba_global_function_tolerance); a community "
-       "that the community_ba_* settings leave in several models is "
-       "reconstructed again with the mapper's own",
-       kShapesPlan,
-       kAdvanced},
-      {"community_ba_global_ratio",
-       &mapper.community_ba_global_ratio,
-       "growth of a community's model (frames or points) after which it is "
-       "bundle adjusted as a whole (-1: Mapper.ba_global_frames_ratio and "
-       "Mapper.ba_global_points_ratio)",
+       "relative function tolerance at which the communities' global bundle "
+       "adjustments stop (-1: Mapper.ba_global_function_tolerance; a plan of "
+       "one community runs the mapper's own)",
        kShapesPlan,
        kAdvanced},
       {"pairwise_max_relative_error",

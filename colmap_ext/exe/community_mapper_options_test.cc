@@ -65,8 +65,7 @@ TEST(CommunityMapperOptionTable, PlanKeysAreThePartitionsAndCommunities) {
   for (const std::string key : {"modularity_threshold",
                                 "min_community_size",
                                 "edge_weights",
-                                "image_overlap",
-                                "community_ba_global_ratio"}) {
+                                "image_overlap"}) {
     EXPECT_EQ(key_set.count(key), 1) << key;
   }
   // The merge's and the run's own options may differ between runs of one

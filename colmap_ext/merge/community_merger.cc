@@ -187,8 +187,10 @@ void CommunityMerger::EstimateSimilarities() {
 }
 
 // The communities' models as their stage left them in the workspace (none
-// for a community that registered nothing), the plan's first, then, with
-// `merge_other_models`, the extra communities (AddExtraCommunities), with
+// for a community that registered nothing), the plan's first, then the extra
+// communities (AddExtraCommunities): where a community's mapper made several
+// models, each other one holding at least incremental_options.min_model_size
+// of the community's own images (that no larger model of it holds). With
 // their paths and reports.
 void CommunityMerger::ReadCommunityModels() {
   const int num_plan_communities = plan_.NumCommunities();
@@ -212,7 +214,7 @@ void CommunityMerger::ReadCommunityModels() {
   }
   result_.extra_community_origins.clear();
   for (int c = 0; c < num_plan_communities; ++c) {
-    if (models_[c] && options_.merge_other_models) {
+    if (models_[c]) {
       AddExtraCommunities(workspace_,
                           records[c],
                           options_.incremental_options.min_model_size,
@@ -235,7 +237,6 @@ void CommunityMerger::AverageSimilarities() {
       similarities_.similarities;
   averaging_ = colmap::AverageSimilarities(
       averaged_communities, similarities, options_.similarity_averaging);
-  result_.community_excluded = averaging_.excluded;
   result_.num_kept_similarities = 0;
   for (size_t e = 0; e < similarities.size(); ++e) {
     const auto& report = averaging_.edges[e];
@@ -248,11 +249,7 @@ void CommunityMerger::AverageSimilarities() {
         report.relative_displacement,
         report.rotation_residual_deg,
         report.log_scale_residual,
-        report.kept           ? "kept"
-        : report.contradicted ? "dropped before the averaging (the images "
-                                "both models registered contradict it)"
-        : report.community_left
-            ? "dropped (one of its communities left the merge)"
+        report.kept ? "kept"
         : report.unconfirmed
             ? "dropped (on no cycle, and the images both "
               "models registered do not confirm it)"
@@ -273,26 +270,6 @@ void CommunityMerger::AverageSimilarities() {
         "%d image pairs between communities support only rejected "
         "transforms: the merged models leave them out.",
         static_cast<int>(false_pairs_.size()));
-  }
-  SetAsideExcludedCommunities();
-}
-
-// Communities that the averaging sent out of the merge lose their model
-// here and are set aside: their images are offered to the merged models,
-// and they keep the images no merged model registers
-// (RegisterRemainingImagesOfParts).
-void CommunityMerger::SetAsideExcludedCommunities() {
-  for (int c = 0; c < static_cast<int>(models_.size()); ++c) {
-    if (!averaging_.excluded[c]) {
-      continue;
-    }
-    LOG(WARNING) << StringPrintf(
-        "Community %d leaves the merge: its similarities disagree with the "
-        "other communities' and it is small. Its images are offered to the "
-        "merged model.",
-        c);
-    set_aside_communities_.push_back(c);
-    models_[c].reset();
   }
 }
 
@@ -315,26 +292,6 @@ void CommunityMerger::KeepModel(
   const std::vector<image_t> reg_image_ids = model->RegImageIds();
   registered_image_ids->insert(reg_image_ids.begin(), reg_image_ids.end());
   result_.models.push_back(std::move(model));
-}
-
-void CommunityMerger::KeepSetAsideCommunities(
-    std::unordered_set<image_t>* registered_image_ids) {
-  // A community that left the merge keeps the images nobody registered as
-  // a model of its own, if there are as many as the incremental mapper
-  // keeps in a model (Mapper.min_model_size): it was small.
-  for (const int c : set_aside_communities_) {
-    std::shared_ptr<Reconstruction> model =
-        LeftModel(c, /*model=*/nullptr, *registered_image_ids);
-    if (static_cast<int>(model->NumRegImages()) >=
-        options_.incremental_options.min_model_size) {
-      LOG(INFO) << StringPrintf(
-          "Community %d left the merge: %d of its images that no merged model "
-          "registered keep its model, as a model of its own",
-          c,
-          static_cast<int>(model->NumRegImages()));
-      KeepModel(std::move(model), registered_image_ids);
-    }
-  }
 }
 
 void CommunityMerger::Solve() {
@@ -463,8 +420,6 @@ void CommunityMerger::RefinePart(
 // those offered to it (part_offers.h), and is kept where it holds at least
 // two images. A part of one community is registered into only where images
 // are offered to it: its community's mapper tried its own images already.
-// Then the set-aside communities keep, as models of their own, the images
-// no model registered (at least Mapper.min_model_size of them).
 void CommunityMerger::RegisterRemainingImagesOfParts() {
   std::unordered_set<image_t> registered_image_ids;
   for (PartModel& part_model : part_models_) {
@@ -509,7 +464,6 @@ void CommunityMerger::RegisterRemainingImagesOfParts() {
     KeepModel(std::move(model), &registered_image_ids);
   }
   part_models_.clear();
-  KeepSetAsideCommunities(&registered_image_ids);
   std::stable_sort(result_.models.begin(),
                    result_.models.end(),
                    [](const std::shared_ptr<Reconstruction>& a,

@@ -70,13 +70,6 @@ struct CommunityMergerOptions {
   // Minimum verified inlier matches of a view-graph edge.
   int min_num_matches = 15;
 
-  // Where a community's mapper made several models, each other model that
-  // holds at least incremental_options.min_model_size of the community's
-  // own images (that no larger model of it holds) takes part in the merge
-  // as an extra community; false: only the largest does, and the
-  // registration registers the others' images one by one.
-  bool merge_other_models = true;
-
   // Pairwise similarity estimation between connected communities.
   PairwiseSimilarityOptions pairwise_similarity;
 
@@ -119,10 +112,8 @@ struct CommunityMergerResult {
   // The merged models, largest first.
   std::vector<std::shared_ptr<Reconstruction>> models;
   // Per community of the merge (the plan's, then the extra communities:
-  // other models of a community's mapper): what its mapper produced, and
-  // whether it left the merge.
+  // other models of a community's mapper): what its mapper produced.
   std::vector<CommunityModelReport> community_reports;
-  std::vector<bool> community_excluded;
   // The plan's community each extra community comes from.
   std::vector<int> extra_community_origins;
   // The plan's community of every image of the view graph.
@@ -204,10 +195,6 @@ class CommunityMerger {
   // Adds a model to the result and its images to `registered_image_ids`.
   void KeepModel(std::shared_ptr<Reconstruction> model,
                  std::unordered_set<image_t>* registered_image_ids);
-  // The set-aside communities' models of the images no model registered, of
-  // at least Mapper.min_model_size images, kept as models of their own.
-  void KeepSetAsideCommunities(
-      std::unordered_set<image_t>* registered_image_ids);
   // JoinPart's steps: the images without a pair left out of the part, the
   // joined points that correspond.
   void LeaveOutUnpairedImages(
@@ -238,11 +225,10 @@ class CommunityMerger {
   CrossEdges cross_edges_;
   CommunitySimilarities similarities_;
 
-  // Stage 2: the placement and links kept, the image pairs the refinement
-  // leaves out, and the communities that left the merge (set aside).
+  // Stage 2: the placement and links kept, and the image pairs the
+  // refinement leaves out.
   SimilarityAveragingResult averaging_;
   std::unordered_set<image_pair_t> false_pairs_;
-  std::vector<int> set_aside_communities_;
 
   // Stage 3: the parts' models, largest part first.
   std::vector<PartModel> part_models_;

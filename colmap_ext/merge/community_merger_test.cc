@@ -124,9 +124,6 @@ TEST_F(MergeCommunitiesTest, CommunitiesInFramesOfTheirOwnMergeIntoOneModel) {
             scene_.ground_truth.NumRegImages());
   EXPECT_EQ(result.num_kept_similarities, result.num_estimated_similarities);
   EXPECT_GE(result.num_kept_similarities, plan_.NumCommunities());
-  for (const bool excluded : result.community_excluded) {
-    EXPECT_FALSE(excluded);
-  }
   const ModelEvaluation evaluation =
       EvaluateModel(*result.models[0], scene_.ground_truth);
   ASSERT_TRUE(evaluation.aligned);
@@ -142,9 +139,6 @@ TEST_F(MergeCommunitiesTest, CommunityWithLargeOwnErrorsStaysWhole) {
     WriteCommunity(c, FrameOf(c), /*reprojection_error=*/c == 1 ? 5.0 : 0.5);
   }
   const CommunityMergerResult result = Merge();
-  for (const bool excluded : result.community_excluded) {
-    EXPECT_FALSE(excluded);
-  }
   EXPECT_EQ(result.num_kept_similarities, result.num_estimated_similarities);
   ASSERT_EQ(result.models.size(), 1);
   EXPECT_EQ(result.models[0]->NumRegImages(),
@@ -180,41 +174,6 @@ TEST_F(MergeCommunitiesTest, PartsWithoutALinkStayApart) {
 
 namespace colmap {
 namespace {
-
-// A community that leaves the merge (here: every link rejected, every
-// community counted small) keeps the images that no merged model registered
-// (here: none is tried) as a model of its own, as colmap mapper writes the
-// models it cannot join: every image in exactly one model.
-TEST_F(MergeCommunitiesTest, LeftCommunitiesKeepTheirImagesAsModels) {
-  // Each a little off, so that no link is within the bound.
-  for (int c = 0; c < plan_.NumCommunities(); ++c) {
-    WriteCommunity(c,
-                   FrameOf(c),
-                   /*reprojection_error=*/0.5,
-                   /*perturbation_deg=*/0.01);
-  }
-  options_.similarity_averaging.max_relative_displacement = 1e-9;
-  options_.similarity_averaging.min_relative_size = 10;
-  options_.skip_registration = true;
-  const CommunityMergerResult result = Merge();
-  int num_excluded = 0;
-  for (const bool excluded : result.community_excluded) {
-    num_excluded += excluded ? 1 : 0;
-  }
-  EXPECT_GE(num_excluded, 1);
-  EXPECT_GE(result.models.size(), 2);
-  std::set<image_t> seen;
-  for (const auto& model : result.models) {
-    for (const image_t image_id : model->RegImageIds()) {
-      EXPECT_TRUE(seen.insert(image_id).second) << image_id << " twice";
-    }
-    const ModelEvaluation evaluation =
-        EvaluateModel(*model, scene_.ground_truth);
-    ASSERT_TRUE(evaluation.aligned);
-    EXPECT_LT(evaluation.median_position_error, 1e-2 * evaluation.extent);
-  }
-  EXPECT_EQ(seen.size(), scene_.ground_truth.NumRegImages());
-}
 
 // Parts that no similarity joins are offered to the largest part, whose
 // registration (stage 4) registers their images: one model of every image,

@@ -99,7 +99,7 @@ MergeResiduals ResidualsAgainstMerge(
   THROW_CHECK_LT(std::max(c1, c2), averaging.part_of_community.size());
   THROW_CHECK_EQ(similarities.size(), averaging.edges.size());
   MergeResiduals residuals;
-  if (c1 == c2 || averaging.excluded[c1] || averaging.excluded[c2] ||
+  if (c1 == c2 ||
       averaging.part_of_community[c1] != averaging.part_of_community[c2]) {
     return residuals;
   }

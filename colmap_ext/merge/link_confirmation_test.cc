@@ -25,7 +25,6 @@ SimilarityAveragingResult TwoJoinedOneApart(
     const bool parallel = false) {
   SimilarityAveragingResult averaging;
   averaging.part_of_community = {0, 0, 1};
-  averaging.excluded = {false, false, false};
   averaging.world_from_community = {
       Sim3d(), Inverse(merged_second_from_first), Sim3d()};
   similarities->clear();
@@ -36,7 +35,6 @@ SimilarityAveragingResult TwoJoinedOneApart(
       if (link + 1 < num_links) {
         next = static_cast<int>(averaging.part_of_community.size());
         averaging.part_of_community.push_back(0);
-        averaging.excluded.push_back(false);
         averaging.world_from_community.push_back(Sim3d());
       }
       RelativeSimilarity similarity;
@@ -150,14 +148,6 @@ TEST(ResidualsAgainstMerge, NothingConfirmsALinkBetweenParts) {
                             averaging);
   EXPECT_FALSE(residuals.joined);
   EXPECT_FALSE(residuals.WithinBound(kBound, /*max_drift_factor=*/10));
-  // Nor a link of a community that left the merge (a part of its own).
-  averaging.excluded[1] = true;
-  averaging.part_of_community[1] = 2;
-  EXPECT_FALSE(
-      ResidualsAgainstMerge(Rejected(0, 1, Sim3d(), Eigen::Vector3d::Zero()),
-                            similarities,
-                            averaging)
-          .joined);
 }
 
 TEST(ResidualsAgainstMerge, BoundGrowsWithThePathsDrift) {

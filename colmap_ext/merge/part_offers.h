@@ -4,9 +4,8 @@
 // into parts: communities joined by kept similarities, numbered largest
 // first. A part is one merged model. Two kinds of images have no part of
 // their own to go to:
-//   - those of a community without a model (its mapper registered nothing,
-//     or the community left the merge): they are offered to the part that
-//     its view-graph edges lead to most;
+//   - those of a community without a model (its mapper registered nothing):
+//     they are offered to the part that its view-graph edges lead to most;
 //   - those of a part that no kept similarity joins to an earlier part
 //     (larger, or as large) it has view-graph edges to, whether no
 //     transform was found or the link was dropped: the part is offered to

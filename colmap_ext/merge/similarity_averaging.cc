@@ -7,14 +7,12 @@
 #include "colmap/math/math.h"
 #include "colmap/optim/least_absolute_deviations.h"
 #include "colmap/util/logging.h"
-#include "colmap/util/string.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <numeric>
-#include <unordered_set>
 
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
@@ -97,44 +95,38 @@ bool SolveDifferenceSystem(const std::vector<int>& nodes,
 }
 
 // The translation measurement T_i - T_j of an edge, given scales and
-// rotations, and the spread of its correspondences in the world frame.
-void TranslationMeasurement(const RelativeSimilarity& edge,
-                            const Sim3d& world_from_first,
-                            const Sim3d& world_from_second,
-                            Eigen::Vector3d* measurement,
-                            double* spread) {
-  std::vector<Eigen::Vector3d> world_points2(edge.points2.size());
+// rotations: the median difference of its correspondences.
+Eigen::Vector3d TranslationMeasurement(const RelativeSimilarity& edge,
+                                       const Sim3d& world_from_first,
+                                       const Sim3d& world_from_second) {
   std::vector<double> differences[3];
   for (size_t k = 0; k < edge.points1.size(); ++k) {
-    world_points2[k] = world_from_second.scale() *
-                       (world_from_second.rotation() * edge.points2[k]);
     const Eigen::Vector3d difference =
-        world_points2[k] - world_from_first.scale() *
-                               (world_from_first.rotation() * edge.points1[k]);
+        world_from_second.scale() *
+            (world_from_second.rotation() * edge.points2[k]) -
+        world_from_first.scale() *
+            (world_from_first.rotation() * edge.points1[k]);
     for (int d = 0; d < 3; ++d) {
       differences[d].push_back(difference(d));
     }
   }
+  Eigen::Vector3d measurement;
   for (int d = 0; d < 3; ++d) {
     std::nth_element(differences[d].begin(),
                      differences[d].begin() + differences[d].size() / 2,
                      differences[d].end());
-    (*measurement)(d) = differences[d][differences[d].size() / 2];
+    measurement(d) = differences[d][differences[d].size() / 2];
   }
-  *spread = MedianDistanceToMedian(world_points2);
+  return measurement;
 }
 
-// Averages the similarities of one connected part in place. With
-// `translations_in_spreads`, every edge's translation counts in units of the
-// spread of its correspondences (its weight divided by that spread), the
-// unit of the displacement bound.
+// Averages the similarities of one connected part in place.
 bool AveragePart(const std::vector<int>& nodes,
                  const std::vector<const RelativeSimilarity*>& edges,
                  const std::vector<double>& edge_weights,
                  const int reference,
                  const SimilarityAveragingOptions& options,
-                 std::vector<Sim3d>* world_from_community,
-                 const bool translations_in_spreads = false) {
+                 std::vector<Sim3d>* world_from_community) {
   std::map<int, int> local;
   for (size_t k = 0; k < nodes.size(); ++k) {
     local.emplace(nodes[k], static_cast<int>(k));
@@ -193,24 +185,16 @@ bool AveragePart(const std::vector<int>& nodes,
 
   // 3. Translation: T_i - T_j = T_ij, re-estimated from the correspondences.
   Eigen::VectorXd b(3 * edges.size());
-  std::vector<double> translation_weights = edge_weights;
   for (size_t e = 0; e < edges.size(); ++e) {
-    Eigen::Vector3d measurement;
-    double spread;
-    TranslationMeasurement(*edges[e],
-                           (*world_from_community)[edges[e]->community1],
-                           (*world_from_community)[edges[e]->community2],
-                           &measurement,
-                           &spread);
-    b.segment<3>(3 * e) = measurement;
-    if (translations_in_spreads && spread > 0) {
-      translation_weights[e] /= spread;
-    }
+    b.segment<3>(3 * e) =
+        TranslationMeasurement(*edges[e],
+                               (*world_from_community)[edges[e]->community1],
+                               (*world_from_community)[edges[e]->community2]);
   }
   Eigen::VectorXd translations;
   if (!SolveDifferenceSystem(nodes,
                              edge_nodes,
-                             translation_weights,
+                             edge_weights,
                              /*dim=*/3,
                              reference,
                              b,
@@ -274,14 +258,6 @@ int NumSharedImagesPlacedElsewhere(const RelativeSimilarity& edge) {
   return edge.num_shared_images - edge.num_agreeing_shared_images;
 }
 
-// See SimilarityAveragingOptions::min_num_contradicting_shared_images.
-bool IsEdgeInDoubt(const RelativeSimilarity& edge,
-                   const SimilarityAveragingOptions& options) {
-  return options.min_num_contradicting_shared_images > 0 &&
-         NumSharedImagesPlacedElsewhere(edge) >=
-             options.min_num_contradicting_shared_images;
-}
-
 // Whether at least `min_num_agreeing` of the images both communities of
 // `edge` registered are placed alike under its similarity and at most
 // `max_num_disagreeing` are not.
@@ -290,108 +266,6 @@ bool SharedImagesConfirm(const RelativeSimilarity& edge,
                          const int max_num_disagreeing) {
   return edge.num_agreeing_shared_images >= min_num_agreeing &&
          NumSharedImagesPlacedElsewhere(edge) <= max_num_disagreeing;
-}
-
-// Whether the L1 solution of a part leaves edges beyond the bound that are
-// all confirmed by their shared images, and the least squares solution
-// (which spreads a cycle's disagreement over its edges) brings every edge
-// of the part within it. If so, `world_from_community` holds the least
-// squares solution for the part's nodes. If some edges beyond the bound
-// are confirmed and others not, `deferred` receives the confirmed ones: they
-// are judged again once the others are out.
-bool SpreadCycleDrift(const std::vector<int>& nodes,
-                      const std::vector<const RelativeSimilarity*>& edges,
-                      const int reference,
-                      const SimilarityAveragingOptions& options,
-                      std::vector<Sim3d>* world_from_community,
-                      std::vector<const RelativeSimilarity*>* deferred) {
-  std::vector<const RelativeSimilarity*> confirmed_edges;
-  bool unconfirmed = false;
-  for (const RelativeSimilarity* edge : edges) {
-    if (EdgeWithinBound(ComputeEdgeResiduals(*edge, *world_from_community),
-                        options.max_relative_displacement)) {
-      continue;
-    }
-    const bool confirmed =
-        SharedImagesConfirm(*edge,
-                            options.min_num_confirming_shared_images,
-                            /*max_num_disagreeing=*/0) &&
-        edge->max_shared_image_relative_distance <=
-            options.max_relative_displacement;
-    if (confirmed) {
-      confirmed_edges.push_back(edge);
-    } else {
-      unconfirmed = true;
-    }
-  }
-  if (unconfirmed) {
-    *deferred = std::move(confirmed_edges);
-    return false;
-  }
-  if (confirmed_edges.empty()) {
-    return false;
-  }
-  // Drift is no edge's fault: every edge counts alike, its translation in
-  // units of its own spread (the bound's unit), so that a small
-  // community's edges do not take up the whole loop's gap.
-  SimilarityAveragingOptions least_squares_options = options;
-  least_squares_options.least_squares = true;
-  std::vector<Sim3d> spread = *world_from_community;
-  if (!AveragePart(nodes,
-                   edges,
-                   std::vector<double>(edges.size(), 1.0),
-                   reference,
-                   least_squares_options,
-                   &spread,
-                   /*translations_in_spreads=*/true)) {
-    return false;
-  }
-  for (const RelativeSimilarity* edge : edges) {
-    if (!EdgeWithinBound(ComputeEdgeResiduals(*edge, spread),
-                         options.max_relative_displacement)) {
-      return false;
-    }
-  }
-  for (const int node : nodes) {
-    (*world_from_community)[node] = spread[node];
-  }
-  return true;
-}
-
-// One connected part as it was averaged: its communities, reference and
-// kept edges with their weights.
-struct AveragedPart {
-  std::vector<int> nodes;
-  int reference = -1;
-  std::vector<const RelativeSimilarity*> edges;
-  std::vector<double> weights;
-};
-
-// The displacement of `edge`'s inlier points where the other edges of its
-// part, averaged without it, place its communities (infinite if their
-// averaging fails). `edge` lies on a cycle of the part's edges, so the
-// others still join every community of the part.
-double DisplacementUnderOtherEdges(const AveragedPart& part,
-                                   const RelativeSimilarity& edge,
-                                   const SimilarityAveragingOptions& options,
-                                   std::vector<Sim3d> world_from_community) {
-  std::vector<const RelativeSimilarity*> others;
-  std::vector<double> other_weights;
-  for (size_t e = 0; e < part.edges.size(); ++e) {
-    if (part.edges[e] != &edge) {
-      others.push_back(part.edges[e]);
-      other_weights.push_back(part.weights[e]);
-    }
-  }
-  if (!AveragePart(part.nodes,
-                   others,
-                   other_weights,
-                   part.reference,
-                   options,
-                   &world_from_community)) {
-    return std::numeric_limits<double>::infinity();
-  }
-  return ComputeEdgeResiduals(edge, world_from_community).relative_displacement;
 }
 
 }  // namespace
@@ -404,14 +278,8 @@ bool SimilarityAveragingOptions::Check() const {
                  "positive")) {
     return false;
   }
-  CHECK_OPTION_GE(max_num_rejection_rounds, 0);
-  CHECK_OPTION_GE(min_num_contradicting_shared_images, 0);
   CHECK_OPTION_GE(min_num_shared_images_on_bridge, 0);
-  CHECK_OPTION_GE(min_num_confirming_shared_images, 1);
-  CHECK_OPTION_GT(doubtful_weight, 0);
-  CHECK_OPTION_LE(doubtful_weight, 1);
   CHECK_OPTION_GT(full_support_num_inliers, 0);
-  CHECK_OPTION_GE(min_relative_size, 0);
   return true;
 }
 
@@ -444,8 +312,7 @@ std::vector<double> EdgeWeights(
     }
     edge_weights[e] =
         support *
-        std::min(1.0, edge.num_inliers / options.full_support_num_inliers) *
-        (IsEdgeInDoubt(edge, options) ? options.doubtful_weight : 1.0);
+        std::min(1.0, edge.num_inliers / options.full_support_num_inliers);
     max_weight = std::max(max_weight, edge_weights[e]);
   }
   for (double& weight : edge_weights) {
@@ -461,18 +328,13 @@ struct AveragingRounds {
   const std::vector<AveragedCommunity>& communities;
   const std::vector<RelativeSimilarity>& relative_similarities;
   const SimilarityAveragingOptions& options;
-  std::vector<double> community_weights;
-  double median_size = 0;
   std::vector<double> edge_weights;
   SimilarityAveragingResult result;
 
-  // Per round: the connected parts over the kept edges, each part's label
-  // (its communities' component), the averaged parts by label and the edges
-  // beyond the bound that their shared images confirm.
+  // Per round: the connected parts over the kept edges and each community's
+  // label (its component).
   std::vector<std::vector<int>> parts;
   std::vector<int> component;
-  std::map<int, AveragedPart> averaged_parts;
-  std::unordered_set<const RelativeSimilarity*> deferred;
 
   int NumCommunities() const { return static_cast<int>(communities.size()); }
 
@@ -498,17 +360,6 @@ struct AveragingRounds {
            labels[relative_similarities[e].community2];
   }
 
-  std::vector<int> CountKeptEdges() const {
-    std::vector<int> num_kept_edges(NumCommunities(), 0);
-    for (size_t e = 0; e < relative_similarities.size(); ++e) {
-      if (result.edges[e].kept) {
-        ++num_kept_edges[relative_similarities[e].community1];
-        ++num_kept_edges[relative_similarities[e].community2];
-      }
-    }
-    return num_kept_edges;
-  }
-
   // Connected parts over the kept edges, in the order of their smallest
   // community.
   void FindParts() {
@@ -529,8 +380,6 @@ struct AveragingRounds {
   // fails loses its edges (the next round splits it): returns false then.
   bool AverageParts() {
     bool failed = false;
-    deferred.clear();
-    averaged_parts.clear();
     for (const std::vector<int>& nodes : parts) {
       int reference = nodes.front();
       for (const int node : nodes) {
@@ -550,52 +399,33 @@ struct AveragingRounds {
           edge_indices.push_back(e);
         }
       }
-      if (!AveragePart(nodes,
-                       edges,
-                       weights,
-                       reference,
-                       options,
-                       &result.world_from_community)) {
-        LOG(WARNING) << "Similarity averaging failed for a part of "
-                     << nodes.size() << " communities; they are kept apart.";
-        for (const size_t e : edge_indices) {
-          result.edges[e].kept = false;
-        }
-        for (const int node : nodes) {
-          result.world_from_community[node] = Sim3d();
-        }
-        failed = failed || !edge_indices.empty();
+      if (AveragePart(nodes,
+                      edges,
+                      weights,
+                      reference,
+                      options,
+                      &result.world_from_community)) {
         continue;
       }
-      averaged_parts[component[reference]] = {nodes, reference, edges, weights};
-      if (options.spread_cycle_drift) {
-        std::vector<const RelativeSimilarity*> deferred_edges;
-        if (SpreadCycleDrift(nodes,
-                             edges,
-                             reference,
-                             options,
-                             &result.world_from_community,
-                             &deferred_edges)) {
-          LOG(INFO) << "A part of " << nodes.size()
-                    << " communities does not close under robust averaging, "
-                       "but every edge beyond the bound is confirmed by its "
-                       "shared images and least squares spreads the "
-                       "disagreement within it: drift, kept";
-        }
-        deferred.insert(deferred_edges.begin(), deferred_edges.end());
+      LOG(WARNING) << "Similarity averaging failed for a part of "
+                   << nodes.size() << " communities; they are kept apart.";
+      for (const size_t e : edge_indices) {
+        result.edges[e].kept = false;
       }
+      for (const int node : nodes) {
+        result.world_from_community[node] = Sim3d();
+      }
+      failed = failed || !edge_indices.empty();
     }
     return !failed;
   }
 
-  // The kept edges beyond the bound that this round rejects: every one
-  // whose displacement is not finite, and with reject_worst_first the worst
-  // of each part, unless it is its part's only one and the other links
-  // place its points within the bound (the cycle's gap).
-  std::vector<size_t> EdgesToReject(const bool last_round) {
+  // Rejects, in each part, the kept edge on a cycle furthest beyond the
+  // bound, and every edge whose displacement is not finite. Returns whether
+  // any edge went.
+  bool RejectWorstEdges() {
     std::map<int, std::pair<double, size_t>> worst_of_part;  // By label.
-    std::map<int, int> num_beyond_bound;                     // By label.
-    std::vector<size_t> to_reject;
+    bool rejected = false;
     for (size_t e = 0; e < relative_similarities.size(); ++e) {
       if (!result.edges[e].kept) {
         continue;
@@ -607,110 +437,38 @@ struct AveragingRounds {
       if (EdgeWithinBound(result.edges[e], options.max_relative_displacement)) {
         continue;
       }
+      if (!std::isfinite(displacement)) {
+        result.edges[e].kept = false;
+        rejected = true;
+        continue;
+      }
       // A bridge is placed by its own similarity alone: its displacement is
-      // its own fit's residual, no other edge's disagreement, and the bridge
-      // rule judges it. It is no cycle's link, so it does not count among
-      // its part's links beyond the bound either.
-      const bool finite = std::isfinite(displacement);
-      if (finite && IsBridge(e)) {
-        continue;
-      }
-      const int label = component[edge.community1];
-      ++num_beyond_bound[label];
-      // A non-finite displacement is rejected in any round. An edge beyond
-      // the bound that its shared images confirm waits while unconfirmed
-      // ones of its part go (SpreadCycleDrift).
-      const bool waits = finite && deferred.count(&edge) > 0;
-      if (waits || (last_round && finite)) {
-        continue;
-      }
-      if (!finite || !options.reject_worst_first) {
-        to_reject.push_back(e);
+      // its own fit's residual, not a cycle's disagreement, and its shared
+      // images judge it (DropUnconfirmedBridges).
+      if (IsBridge(e)) {
         continue;
       }
       auto& worst =
-          worst_of_part.emplace(label, std::make_pair(0.0, e)).first->second;
+          worst_of_part
+              .emplace(component[edge.community1], std::make_pair(0.0, e))
+              .first->second;
       if (displacement > worst.first) {
         worst = {displacement, e};
       }
     }
     for (const auto& [label, worst] : worst_of_part) {
-      const RelativeSimilarity& edge = relative_similarities[worst.second];
-      if (num_beyond_bound.at(label) == 1) {
-        const double displacement =
-            DisplacementUnderOtherEdges(averaged_parts.at(label),
-                                        edge,
-                                        options,
-                                        result.world_from_community);
-        LOG(INFO) << StringPrintf(
-            "Communities %d-%d: displacement %.4f, the only link of its part "
-            "beyond the bound; the other links place its points %.4f off -> "
-            "%s",
-            edge.community1,
-            edge.community2,
-            result.edges[worst.second].relative_displacement,
-            displacement,
-            displacement <= options.max_relative_displacement
-                ? "the cycle's gap, kept"
-                : "rejected");
-        if (displacement <= options.max_relative_displacement) {
-          continue;
-        }
-      }
-      to_reject.push_back(worst.second);
+      result.edges[worst.second].kept = false;
+      rejected = true;
     }
-    return to_reject;
-  }
-
-  // Rejects the edges beyond the bound, and with each the weaker community
-  // if it is small and cannot be trusted on its own. Returns whether any
-  // edge went.
-  bool RejectEdges(const bool last_round) {
-    const std::vector<size_t> to_reject = EdgesToReject(last_round);
-    std::vector<int> to_exclude;
-    for (const size_t e : to_reject) {
-      result.edges[e].kept = false;
-      const int community1 = relative_similarities[e].community1;
-      const int community2 = relative_similarities[e].community2;
-      const int weaker =
-          community_weights[community1] <= community_weights[community2]
-              ? community1
-              : community2;
-      if (communities[weaker].num_images <
-          options.min_relative_size * median_size) {
-        to_exclude.push_back(weaker);
-      }
-    }
-    // A small community that is left with fewer than two kept edges has
-    // nothing that confirms its own model against the rejected edge (it may
-    // be a short piece bent inside itself, which one edge cannot check): it
-    // leaves. With two or more, the others agree on where it is and the
-    // rejected similarity was the odd one out.
-    const std::vector<int> num_kept_edges = CountKeptEdges();
-    for (const int community : to_exclude) {
-      if (num_kept_edges[community] >= 2) {
-        continue;
-      }
-      result.excluded[community] = true;
-      for (size_t e = 0; e < relative_similarities.size(); ++e) {
-        if (result.edges[e].kept &&
-            (relative_similarities[e].community1 == community ||
-             relative_similarities[e].community2 == community)) {
-          result.edges[e].kept = false;
-          result.edges[e].community_left = true;
-        }
-      }
-    }
-    return !to_reject.empty();
+    return rejected;
   }
 
   // Edges that no cycle of kept edges checks (bridges): the averaging fits
   // them as they are, right or wrong, so the images both models registered
   // must confirm such an edge. Two sound communities can be joined by wrong
   // matches alone: their similarity then rests on few inliers among many
-  // correspondences and on no shared image, and it can still pass the
-  // co-visibility check; kept, it misplaces the whole weaker community.
-  // Returns whether a bridge was dropped.
+  // correspondences and on no shared image; kept, it misplaces the whole
+  // weaker community. Returns whether a bridge was dropped.
   bool DropUnconfirmedBridges() {
     bool dropped_bridge = false;
     for (size_t e = 0; e < relative_similarities.size(); ++e) {
@@ -784,39 +542,24 @@ SimilarityAveragingResult AverageSimilarities(
   }
 
   AveragingRounds rounds{communities, relative_similarities, options};
-  std::vector<int> sizes;
+  std::vector<double> community_weights;
   for (const AveragedCommunity& community : communities) {
-    rounds.community_weights.push_back(std::max(1, community.num_images));
-    sizes.push_back(community.num_images);
+    community_weights.push_back(std::max(1, community.num_images));
   }
-  rounds.median_size = sizes.empty() ? 0.0 : static_cast<double>(Median(sizes));
   rounds.edge_weights =
-      EdgeWeights(rounds.community_weights, relative_similarities, options);
-
+      EdgeWeights(community_weights, relative_similarities, options);
   SimilarityAveragingResult& result = rounds.result;
   result.world_from_community.assign(num_communities, Sim3d());
   result.edges.resize(relative_similarities.size());
-  result.excluded.assign(num_communities, false);
-  for (size_t e = 0; e < relative_similarities.size(); ++e) {
-    const RelativeSimilarity& edge = relative_similarities[e];
-    result.edges[e].contradicted =
-        IsEdgeInDoubt(edge, options) &&
-        NumSharedImagesPlacedElsewhere(edge) >= edge.num_agreeing_shared_images;
-    result.edges[e].kept = !result.edges[e].contradicted;
+  for (SimilarityAveragingResult::EdgeReport& report : result.edges) {
+    report.kept = true;
   }
 
-  // Rejecting one edge per part and round takes up to one round per edge.
-  const int max_num_rounds =
-      options.reject_worst_first && options.max_num_rejection_rounds > 0
-          ? std::max(options.max_num_rejection_rounds,
-                     static_cast<int>(relative_similarities.size()))
-          : options.max_num_rejection_rounds;
-  for (int round = 0;; ++round) {
+  // Every round rejects at least one edge, or ends the averaging.
+  for (;;) {
     rounds.FindParts();
     const bool averaged = rounds.AverageParts();
-    const bool rejected =
-        rounds.RejectEdges(/*last_round=*/round >= max_num_rounds);
-    if (rejected || !averaged) {
+    if (rounds.RejectWorstEdges() || !averaged) {
       continue;
     }
     if (!rounds.DropUnconfirmedBridges()) {

@@ -1,27 +1,35 @@
 #include "colmap_ext/reconstruction/community_reconstruction.h"
 
 #include "colmap_ext/reconstruction/filtered_database_cache.h"
-#include "colmap_ext/workflow/database_retry.h"
 #include "colmap_ext/util/process_memory.h"
+#include "colmap_ext/workflow/database_retry.h"
 
 #include "colmap/math/random.h"
 #include "colmap/scene/database.h"
 #include "colmap/scene/database_cache.h"
 #include "colmap/scene/reconstruction_manager.h"
 #include "colmap/util/logging.h"
-#include "colmap/util/string.h"
 
 #include <algorithm>
-#include <unordered_map>
 #include <unordered_set>
 #include <utility>
 
 namespace colmap {
 
-namespace {
+bool RoomForAnotherModel(const ReconstructionManager& models,
+                         const size_t num_images,
+                         const int min_model_size) {
+  std::unordered_set<image_t> registered;
+  for (size_t i = 0; i < models.Size(); ++i) {
+    const std::vector<image_t> image_ids = models.Get(i)->RegImageIds();
+    registered.insert(image_ids.begin(), image_ids.end());
+  }
+  THROW_CHECK_LE(registered.size(), num_images);
+  return num_images - registered.size() >=
+         static_cast<size_t>(std::max(min_model_size, 0));
+}
 
-// One run of COLMAP's incremental pipeline on the community's images.
-CommunityReconstruction ReconstructOnce(
+CommunityReconstruction ReconstructCommunityModels(
     std::shared_ptr<const IncrementalPipelineOptions> options,
     const std::string& image_path,
     const std::string& database_path,
@@ -94,84 +102,6 @@ CommunityReconstruction ReconstructOnce(
     result.other_models.assign(models.begin() + 1, models.end());
   }
   return result;
-}
-
-int NumRegImages(const CommunityReconstruction& reconstruction) {
-  return reconstruction.model
-             ? static_cast<int>(reconstruction.model->NumRegImages())
-             : 0;
-}
-
-}  // namespace
-
-bool RoomForAnotherModel(const ReconstructionManager& models,
-                         const size_t num_images,
-                         const int min_model_size) {
-  std::unordered_set<image_t> registered;
-  for (size_t i = 0; i < models.Size(); ++i) {
-    const std::vector<image_t> image_ids = models.Get(i)->RegImageIds();
-    registered.insert(image_ids.begin(), image_ids.end());
-  }
-  THROW_CHECK_LE(registered.size(), num_images);
-  return num_images - registered.size() >=
-         static_cast<size_t>(std::max(min_model_size, 0));
-}
-
-CommunityReconstruction ReconstructCommunityModels(
-    std::shared_ptr<const IncrementalPipelineOptions> options,
-    const std::string& image_path,
-    const std::string& database_path,
-    std::mutex* database_mutex,
-    std::shared_ptr<const IncrementalPipelineOptions> retry_options) {
-  CommunityReconstruction result =
-      ReconstructOnce(options, image_path, database_path, database_mutex);
-  if (result.num_models <= 1 || !retry_options) {
-    return result;
-  }
-  THROW_CHECK(retry_options->image_names == options->image_names);
-  LOG(INFO) << StringPrintf(
-      "The mapper left the community in %d models (%d images in the "
-      "largest): it is reconstructed again with the mapper's own global "
-      "adjustments",
-      result.num_models,
-      NumRegImages(result));
-  CommunityReconstruction retry =
-      ReconstructOnce(retry_options, image_path, database_path, database_mutex);
-  const bool retry_kept = NumRegImages(retry) > NumRegImages(result);
-  LOG(INFO) << StringPrintf(
-      "Again: %d models, %d images in the largest; the %s run is kept",
-      retry.num_models,
-      NumRegImages(retry),
-      retry_kept ? "second" : "first");
-  if (retry_kept) {
-    result = std::move(retry);
-  }
-  result.retried = true;
-  result.retry_kept = retry_kept;
-  return result;
-}
-
-double OwnCameraFraction(const std::string& database_path,
-                         const std::unordered_set<std::string>& image_names,
-                         std::mutex* database_mutex) {
-  std::vector<Image> images;
-  RetryDatabaseAccessOrThrow(database_path, [&]() {
-    std::lock_guard<std::mutex> lock(*database_mutex);
-    images = Database::Open(database_path)->ReadAllImages();
-  });
-  std::unordered_map<camera_t, int> num_images_of_camera;
-  for (const Image& image : images) {
-    ++num_images_of_camera[image.CameraId()];
-  }
-  int num_own = 0;
-  int num_found = 0;
-  for (const Image& image : images) {
-    if (image_names.count(image.Name()) > 0) {
-      ++num_found;
-      num_own += num_images_of_camera.at(image.CameraId()) == 1 ? 1 : 0;
-    }
-  }
-  return num_found == 0 ? 0.0 : static_cast<double>(num_own) / num_found;
 }
 
 }  // namespace colmap

@@ -28,14 +28,6 @@
 // the others are kept beside it, largest first: the merge lets those that
 // hold enough of the community's images take part as communities of their
 // own (community_mapper.h), instead of registering their images anew.
-//
-// A community's mapper may run faster settings than the mapper's own (fewer
-// global adjustments), which give the same model on most communities. Where
-// they do not hold the community together (its mapper had to start again:
-// several models), the community is reconstructed once more with the
-// retry settings, the mapper's own, and the run whose largest model holds
-// more images is kept: a walkway piece whose drift the sparser adjustments
-// let grow breaks where the whole database's mapper does not.
 
 #pragma once
 
@@ -58,10 +50,6 @@ struct CommunityReconstruction {
   std::vector<std::shared_ptr<Reconstruction>> other_models;
   // Models the mapper made.
   int num_models = 0;
-  // Whether the community was reconstructed again with the retry settings,
-  // and whether that run is the one kept.
-  bool retried = false;
-  bool retry_kept = false;
 };
 
 // Whether at least `min_model_size` of `num_images` images are registered in
@@ -72,25 +60,12 @@ bool RoomForAnotherModel(const ReconstructionManager& models,
                          size_t num_images,
                          int min_model_size);
 
-// `options.image_names` holds the community's images. Where the mapper makes
-// several models and `retry_options` (the same images) are given, the
-// community is reconstructed again with those, and the run whose largest
-// model holds more images is kept (the first where both hold as many).
+// `options.image_names` holds the community's images; `options` are the
+// user's --Mapper.* settings, as `colmap mapper` runs them.
 CommunityReconstruction ReconstructCommunityModels(
     std::shared_ptr<const IncrementalPipelineOptions> options,
     const std::string& image_path,
     const std::string& database_path,
-    std::mutex* database_mutex,
-    std::shared_ptr<const IncrementalPipelineOptions> retry_options = nullptr);
-
-// The fraction of `image_names` (those in the database) whose camera no
-// other image of the database uses: where most have one, the community is
-// reconstructed with the mapper's own adjustments (community_mapper.h). The
-// reading is tried again while another process holds the database
-// (database_retry.h), as the community's loading is: a community's settings
-// must not depend on whether the database was locked a moment.
-double OwnCameraFraction(const std::string& database_path,
-                         const std::unordered_set<std::string>& image_names,
-                         std::mutex* database_mutex);
+    std::mutex* database_mutex);
 
 }  // namespace colmap

@@ -122,74 +122,6 @@ TEST_F(ReconstructCommunityTest, OtherModelsAreKeptLargestFirst) {
   }
 }
 
-// The whole scene, both landmarks and the walkway between them, as one
-// community; `min_num_matches` above every walkway pair's inliers (105 at
-// most, against up to 336 within a landmark) leaves the walkway out and the
-// landmarks in two models.
-std::shared_ptr<IncrementalPipelineOptions> WholeSceneOptions(
-    const SyntheticScene& scene, const int min_num_matches) {
-  auto options = std::make_shared<IncrementalPipelineOptions>();
-  options->num_threads = 1;
-  options->min_num_matches = min_num_matches;
-  for (const image_t image_id : scene.ground_truth.RegImageIds()) {
-    options->image_names.push_back(scene.ground_truth.Image(image_id).Name());
-  }
-  return options;
-}
-
-// A run that leaves the community in several models is tried again with the
-// retry settings, and the run holding more images in its largest model is
-// kept, with its own other models.
-TEST_F(ReconstructCommunityTest, SeveralModelsAreTriedAgainAndTheLargerKept) {
-  const auto broken = WholeSceneOptions(scene_, /*min_num_matches=*/110);
-  const auto whole = WholeSceneOptions(scene_, /*min_num_matches=*/15);
-  std::mutex database_mutex;
-  const CommunityReconstruction without_retry =
-      ReconstructCommunityModels(broken, "", database_path_, &database_mutex);
-  ASSERT_TRUE(without_retry.model);
-  EXPECT_EQ(without_retry.num_models, 2);
-  EXPECT_FALSE(without_retry.retried);
-
-  const CommunityReconstruction retry_alone =
-      ReconstructCommunityModels(whole, "", database_path_, &database_mutex);
-  ASSERT_TRUE(retry_alone.model);
-  ASSERT_GT(retry_alone.model->NumRegImages(),
-            without_retry.model->NumRegImages());
-
-  const CommunityReconstruction result = ReconstructCommunityModels(
-      broken, "", database_path_, &database_mutex, whole);
-  EXPECT_TRUE(result.retried);
-  EXPECT_TRUE(result.retry_kept);
-  ASSERT_TRUE(result.model);
-  EXPECT_EQ(result.model->NumRegImages(), retry_alone.model->NumRegImages());
-  EXPECT_EQ(result.num_models, retry_alone.num_models);
-  EXPECT_EQ(result.other_models.size(), retry_alone.other_models.size());
-}
-
-// A retry that holds no more images than the first run leaves the first
-// run's models.
-TEST_F(ReconstructCommunityTest, ARetryHoldingNoMoreKeepsTheFirstRun) {
-  const auto broken = WholeSceneOptions(scene_, /*min_num_matches=*/110);
-  std::mutex database_mutex;
-  const CommunityReconstruction result = ReconstructCommunityModels(
-      broken, "", database_path_, &database_mutex, broken);
-  EXPECT_TRUE(result.retried);
-  EXPECT_FALSE(result.retry_kept);
-  ASSERT_TRUE(result.model);
-  EXPECT_EQ(result.num_models, 2);
-  EXPECT_EQ(result.other_models.size(), 1);
-}
-
-// A community held in one model is not reconstructed again.
-TEST_F(ReconstructCommunityTest, OneModelIsNotTriedAgain) {
-  std::mutex database_mutex;
-  const CommunityReconstruction result = ReconstructCommunityModels(
-      options_, "", database_path_, &database_mutex, options_);
-  ASSERT_TRUE(result.model);
-  EXPECT_EQ(result.num_models, 1);
-  EXPECT_FALSE(result.retried);
-}
-
 TEST_F(ReconstructCommunityTest, NoImagesWithMatchesGivesNoModel) {
   auto options = std::make_shared<IncrementalPipelineOptions>(*options_);
   options->image_names = {"no-such-image.jpg"};
@@ -224,37 +156,6 @@ TEST(RoomForAnotherModel, CountsTheImagesNoModelRegisters) {
   *models.Get(models.Add()) = eight;
   EXPECT_TRUE(RoomForAnotherModel(models, /*num_images=*/18, 10));
   EXPECT_FALSE(RoomForAnotherModel(models, /*num_images=*/17, 10));
-}
-
-TEST(OwnCameraFraction, CountsTheImagesWhoseCameraNoOtherImageUses) {
-  const std::string database_path =
-      (std::filesystem::path(CreateTestFolder()) / "database.db").string();
-  std::unordered_set<std::string> image_names;
-  {
-    const std::shared_ptr<Database> database = Database::Open(database_path);
-    const camera_t shared_camera_id =
-        database->WriteCamera(Camera::CreateFromModelId(
-            1, SimplePinholeCameraModel::model_id, 1, 1, 1));
-    for (int i = 0; i < 4; ++i) {
-      Image image;
-      image.SetName("image" + std::to_string(i));
-      image.SetCameraId(
-          i < 3 ? shared_camera_id
-                : database->WriteCamera(Camera::CreateFromModelId(
-                      1, SimplePinholeCameraModel::model_id, 1, 1, 1)));
-      database->WriteImage(image);
-      image_names.insert(image.Name());
-    }
-  }
-  std::mutex database_mutex;
-  // One image of four has a camera of its own; names not in the database
-  // do not count.
-  image_names.insert("not_in_the_database");
-  EXPECT_EQ(OwnCameraFraction(database_path, image_names, &database_mutex),
-            0.25);
-  EXPECT_EQ(OwnCameraFraction(database_path, {"image3"}, &database_mutex), 1.0);
-  EXPECT_EQ(OwnCameraFraction(database_path, {"image0"}, &database_mutex), 0.0);
-  EXPECT_EQ(OwnCameraFraction(database_path, {}, &database_mutex), 0.0);
 }
 
 }  // namespace

@@ -49,7 +49,7 @@ IncrementalPipelineOptions
 CommunityMapperController::Options::CommunityIncrementalOptions(
     const std::unordered_set<std::string>& image_names,
     const int num_threads,
-    const bool mapper_schedule) const {
+    const bool only_community) const {
   IncrementalPipelineOptions community_options = incremental_options;
   community_options.image_names.assign(image_names.begin(), image_names.end());
   std::sort(community_options.image_names.begin(),
@@ -58,28 +58,11 @@ CommunityMapperController::Options::CommunityIncrementalOptions(
   if (community_options.num_threads < 0) {
     community_options.num_threads = num_threads;
   }
-  if (mapper_schedule) {
-    return community_options;
-  }
-  if (community_ba_function_tolerance >= 0) {
+  if (!only_community && community_ba_function_tolerance >= 0) {
     community_options.ba_global_function_tolerance =
         community_ba_function_tolerance;
   }
-  if (community_ba_global_ratio > 0) {
-    community_options.ba_global_frames_ratio = community_ba_global_ratio;
-    community_options.ba_global_points_ratio = community_ba_global_ratio;
-  }
   return community_options;
-}
-
-bool CommunityMapperController::Options::HasCommunitySchedule() const {
-  return community_ba_function_tolerance >= 0 || community_ba_global_ratio > 0;
-}
-
-bool CommunityMapperController::Options::UsesMapperSchedule(
-    const double own_camera_fraction, const bool only_community) const {
-  return only_community ||
-         (mapper_schedule_for_own_cameras && own_camera_fraction > 0.5);
 }
 
 bool CommunityMapperController::Options::Check() const {
@@ -90,19 +73,12 @@ bool CommunityMapperController::Options::Check() const {
                      "num_workers",
                      num_workers,
                      "positive, or -1 for one per CPU core");
-  valid &= CheckFlag(
-      community_ba_function_tolerance >= 0 ||
-          community_ba_function_tolerance == -1,
-      "community_ba_function_tolerance",
-      community_ba_function_tolerance,
-      "0 or more, or -1 for --Mapper.ba_global_function_tolerance");
-  valid &= CheckFlag(community_ba_global_ratio > 1 ||
-                         community_ba_global_ratio == -1,
-                     "community_ba_global_ratio",
-                     community_ba_global_ratio,
-                     "greater than 1, or -1 for "
-                     "--Mapper.ba_global_frames_ratio and "
-                     "--Mapper.ba_global_points_ratio");
+  valid &=
+      CheckFlag(community_ba_function_tolerance >= 0 ||
+                    community_ba_function_tolerance == -1,
+                "community_ba_function_tolerance",
+                community_ba_function_tolerance,
+                "0 or more, or -1 for --Mapper.ba_global_function_tolerance");
   return valid && MergeOptions().Check();  // With incremental_options'.
 }
 
@@ -308,47 +284,16 @@ bool CommunityMapperController::ReconstructAndRecord(
   record.num_images = static_cast<int>(image_names.size());
   record.database_fingerprint = plan_.database_fingerprint;
   try {
-    double own_camera_fraction = 0;
-    if (options_.mapper_schedule_for_own_cameras) {
-      try {
-        own_camera_fraction = OwnCameraFraction(
-            options_.database_path, image_names, database_mutex);
-      } catch (const std::exception& error) {
-        // E.g. "database is locked" after every retry: the community
-        // settings then apply.
-        LOG(WARNING) << "Reading the cameras of the images failed: "
-                     << error.what();
-      }
-    }
-    const bool only_community = plan_.NumCommunities() == 1;
-    if (only_community) {
-      LOG(INFO) << "The plan's only community: the mapper's own global "
-                   "adjustments (nothing is merged and adjusted after it)";
-    } else if (options_.UsesMapperSchedule(own_camera_fraction)) {
-      LOG(INFO) << StringPrintf(
-          "%.0f%% of the images have a camera of their own: the mapper's "
-          "own global adjustments",
-          100 * own_camera_fraction);
-    }
-    const bool mapper_schedule =
-        options_.UsesMapperSchedule(own_camera_fraction, only_community);
-    // Where the community's faster schedule leaves it in several models,
-    // the mapper's own is tried as well.
-    std::shared_ptr<const IncrementalPipelineOptions> retry_options;
-    if (!mapper_schedule && options_.HasCommunitySchedule()) {
-      retry_options = std::make_shared<IncrementalPipelineOptions>(
-          options_.CommunityIncrementalOptions(
-              image_names, num_threads, /*mapper_schedule=*/true));
-    }
     const CommunityReconstruction reconstruction =
         colmap::ReconstructCommunityModels(
             std::make_shared<IncrementalPipelineOptions>(
                 options_.CommunityIncrementalOptions(
-                    image_names, num_threads, mapper_schedule)),
+                    image_names,
+                    num_threads,
+                    /*only_community=*/plan_.NumCommunities() == 1)),
             options_.image_path,
             options_.database_path,
-            database_mutex,
-            retry_options);
+            database_mutex);
     record.num_models = reconstruction.num_models;
     if (reconstruction.model && reconstruction.model->NumRegImages() > 0) {
       const Reconstruction& model = *reconstruction.model;
@@ -460,7 +405,6 @@ bool CommunityMapperController::Merge() {
   summary_.num_view_graph_images = result.num_view_graph_images;
   summary_.num_view_graph_edges = result.num_view_graph_edges;
   summary_.community_reports = result.community_reports;
-  summary_.community_excluded = result.community_excluded;
   summary_.extra_community_origins = result.extra_community_origins;
   summary_.community_of_image = result.community_of_image;
   summary_.num_community_pairs = result.num_community_pairs;

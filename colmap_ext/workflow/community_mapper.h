@@ -18,9 +18,8 @@
 // Where the merge cannot join communities (no similarity found, or one it
 // does not trust), it still gives what the incremental mapper would: the
 // images of a part that no similarity joins to a larger one are offered to
-// the larger part's model, whose incremental mapper registers those it can,
-// and a community that left the merge keeps the images nobody registered as
-// a model of its own; no image is written in two models.
+// the larger part's model, whose incremental mapper registers those it can;
+// no image is written in two models.
 //
 // The work is done in three stages over files in the output folder
 // (community_workspace.h), each a method that another process, or a
@@ -93,40 +92,14 @@ class CommunityMapperController : public BaseController {
     // are split evenly among the workers.
     int num_workers = -1;
 
-    // The two settings below are faster than the mapper's own and give the
-    // same community model on most communities; a community they leave in
-    // several models is reconstructed again with the mapper's own, and the
-    // run holding more images in its largest model is kept.
-    //
-    // Relative function tolerance of the global bundle adjustments inside
-    // each community's incremental mapper; -1 takes
+    // Relative function tolerance at which the global bundle adjustments
+    // of each community's incremental mapper stop; -1 takes
     // incremental_options.ba_global_function_tolerance (COLMAP's 0 runs
     // every global adjustment to its iteration limit). The merged model is
     // adjusted as a whole at the end, so the communities need not polish
-    // the last digits.
+    // the last digits; the plan's only community, whose model is the
+    // result, runs the mapper's own.
     double community_ba_function_tolerance = 1e-6;
-
-    // Growth of a community's model (in registered frames or in points)
-    // after which its incremental mapper runs the next global bundle
-    // adjustment; -1 takes incremental_options.ba_global_frames_ratio and
-    // ba_global_points_ratio (COLMAP's 1.1). Local bundle adjustment still
-    // follows every registration.
-    double community_ba_global_ratio = 1.4;
-
-    // A community most of whose images have a camera of their own (photos
-    // from many devices, per-image intrinsics) runs the incremental mapper's
-    // own global adjustments instead of the two cheaper settings above: its
-    // intrinsics are estimated image by image, and fewer, shorter global
-    // adjustments leave a short walkway piece of such images bent.
-    bool mapper_schedule_for_own_cameras = true;
-
-    // Whether a community gets the mapper's own schedule: where
-    // mapper_schedule_for_own_cameras applies to it (its images have a
-    // camera of their own in this fraction), or where it is the plan's only
-    // community, whose model is the result (no adjustment of the whole
-    // follows).
-    bool UsesMapperSchedule(double own_camera_fraction,
-                            bool only_community = false) const;
 
     // The merge stage (community_merger.h). Its database_path, image_path,
     // image_names, min_num_matches and incremental_options are this
@@ -143,18 +116,13 @@ class CommunityMapperController : public BaseController {
 
     // The incremental mapper's options for one community's images:
     // incremental_options with the community's images (sorted) and
-    // image_path, the community_* settings above in effect unless
-    // `mapper_schedule`, and num_threads threads if incremental_options
-    // leaves it to the machine.
+    // image_path, num_threads threads if incremental_options leaves it to
+    // the machine, and community_ba_function_tolerance unless it is the
+    // plan's `only_community`.
     IncrementalPipelineOptions CommunityIncrementalOptions(
         const std::unordered_set<std::string>& image_names,
         int num_threads,
-        bool mapper_schedule = false) const;
-
-    // Whether the community_* settings differ from the mapper's own (a
-    // community they leave in several models is then reconstructed again
-    // with the mapper's own: community_reconstruction.h).
-    bool HasCommunitySchedule() const;
+        bool only_community = false) const;
 
     bool Check() const;
   };

@@ -30,11 +30,6 @@ std::string CommunityMapperSummaryToText(
   text += "reconstructed_communities" +
           join(summary.reconstructed_communities) + "\n";
   text += "reused_communities" + join(summary.reused_communities) + "\n";
-  int num_excluded = 0;
-  for (const bool excluded : summary.community_excluded) {
-    num_excluded += excluded ? 1 : 0;
-  }
-  text += StringPrintf("num_excluded_communities %d\n", num_excluded);
   text += StringPrintf("num_community_pairs %d\n", summary.num_community_pairs);
   text += StringPrintf("num_estimated_similarities %d\n",
                        summary.num_estimated_similarities);
@@ -52,34 +47,25 @@ std::string CommunityMapperSummaryToText(
 
 void LogCommunityMapperSummary(const CommunityMapperSummary& summary) {
   LOG_HEADING1("Community mapper summary");
-  // (A merge that stopped early judged nothing.)
-  const auto left_the_merge = [&summary](const size_t c) {
-    return c < summary.community_excluded.size() &&
-                   summary.community_excluded[c]
-               ? ", left the merge"
-               : "";
-  };
   for (size_t c = 0; c < summary.community_sizes.size() &&
                      c < summary.community_reports.size();
        ++c) {
     const CommunityModelReport& report = summary.community_reports[c];
     LOG(INFO) << StringPrintf(
-        "Community %d: %d images, %d registered%s%s",
+        "Community %d: %d images, %d registered%s",
         static_cast<int>(c),
         summary.community_sizes[c],
         report.num_registered,
-        report.num_models > 1 ? " (largest of several models)" : "",
-        left_the_merge(c));
+        report.num_models > 1 ? " (largest of several models)" : "");
   }
   for (size_t e = 0; e < summary.extra_community_origins.size(); ++e) {
     const size_t c = summary.community_sizes.size() + e;
     LOG(INFO) << StringPrintf(
-        "Community %d (model %d of community %d): %d registered%s",
+        "Community %d (model %d of community %d): %d registered",
         static_cast<int>(c),
         summary.community_reports[c].model_index,
         summary.extra_community_origins[e],
-        summary.community_reports[c].num_registered,
-        left_the_merge(c));
+        summary.community_reports[c].num_registered);
   }
   LOG(INFO) << StringPrintf(
       "Community pairs: %d joined by view-graph edges, %d with a similarity, "

@@ -23,11 +23,8 @@ struct CommunityMapperSummary {
   std::vector<int> community_sizes;
   // Per community of the merge (the plan's, then the extra communities:
   // other models of a community's mapper, see Merge()): what its mapper
-  // produced, and whether it left the merge (its images and its model were
-  // then offered to the merged model, and those it did not register kept
-  // the community's model).
+  // produced.
   std::vector<CommunityModelReport> community_reports;
-  std::vector<bool> community_excluded;
   // The plan's community each extra community comes from.
   std::vector<int> extra_community_origins;
   // Pairs of communities joined by view-graph edges, with a pairwise
@@ -50,11 +47,9 @@ struct CommunityMapperSummary {
   double peak_memory_mb = 0.0;
 };
 
-
 // The summary as "key value" lines (OUT/summary.txt), for scripts such as
 // the benchmark: phase_seconds NAME SECONDS (NAME in snake case),
 // community_sizes (the plan's), extra_community_origins,
-// num_excluded_communities (of the plan's and the extra ones),
 // reused_communities, model_num_registered, peak_memory_mb, ...
 std::string CommunityMapperSummaryToText(const CommunityMapperSummary& summary);
 
