@@ -209,10 +209,6 @@ TEST_F(CommunityMapperInputTest, InvalidOptionValues) {
                 "--CommunityMapper.partition_max_part_conductance is 1.5: it "
                 "must be in (0, 1]");
   ExpectRefusal(good_database_,
-                "--CommunityMapper.partition_max_joined_part_fraction 1",
-                "--CommunityMapper.partition_max_joined_part_fraction is 1: "
-                "it must be in [0, 1)");
-  ExpectRefusal(good_database_,
                 "--CommunityMapper.edge_weights inliers",
                 "edge_weights is 'inliers': use 'unit' or 'num_inliers'");
   ExpectRefusal(

@@ -87,13 +87,6 @@ std::vector<CommunityMapperOption> CommunityMapperOptionTable(
        "threshold only)",
        kShapesPlan,
        kAdvanced},
-      {"partition_max_joined_part_fraction",
-       &detection.max_joined_part_fraction,
-       "such a part holding at most this fraction of the split graph (a "
-       "short connecting piece) joins its most connected sibling instead of "
-       "refusing the split (0: always refuse)",
-       kShapesPlan,
-       kAdvanced},
       {"community_ba_function_tolerance",
        &mapper.community_ba_function_tolerance,
        "relative function tolerance at which the communities' global bundle "

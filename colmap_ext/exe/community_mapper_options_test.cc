@@ -25,7 +25,7 @@ TEST(CommunityMapperOptionTable, NamesAreUniqueAndFew) {
     advanced_seen = advanced_seen || option.advanced;
     num_user_options += option.advanced ? 0 : 1;
   }
-  EXPECT_LE(table.size(), 25);
+  EXPECT_LE(table.size(), 15);
   EXPECT_LE(num_user_options, 12);
 }
 

@@ -217,8 +217,7 @@ PairOutcome EstimatePairSimilarity(
         CheckSharedImages(model1,
                           model2,
                           similarity.second_from_first,
-                          MedianDistanceToMedian(similarity.inlier_points2),
-                          pairwise_options);
+                          MedianDistanceToMedian(similarity.inlier_points2));
   }
   outcome.log = StringPrintf(
       "Communities %d-%d: %d shared images, %d cross edges, %d point "

@@ -141,7 +141,6 @@ bool CommunityMergerOptions::Check() const {
   CHECK_OPTION_GT(min_num_matches, 0);
   CHECK_OPTION(pairwise_similarity.Check());
   CHECK_OPTION(covisibility_check.Check());
-  CHECK_OPTION_GE(rejected_link_max_drift_factor, 1.0);
   CHECK_OPTION(similarity_averaging.Check());
   CHECK_OPTION(incremental_options.Check());
   return true;
@@ -250,6 +249,8 @@ void CommunityMerger::AverageSimilarities() {
         report.rotation_residual_deg,
         report.log_scale_residual,
         report.kept ? "kept"
+        : report.contradicted
+            ? "dropped (the images both models registered contradict it)"
         : report.unconfirmed
             ? "dropped (on no cycle, and the images both "
               "models registered do not confirm it)"
@@ -257,14 +258,17 @@ void CommunityMerger::AverageSimilarities() {
               "with it in)");
   }
 
-  false_pairs_ =
-      options_.confirm_rejected_links
-          ? ConfirmRejectedLinks(
-                similarities_,
-                averaging_,
-                options_.similarity_averaging.max_relative_displacement,
-                options_.rejected_link_max_drift_factor)
-          : similarities_.false_pairs;
+  // A similarity the co-visibility check rejected, between communities the
+  // averaging joins through other links, is confirmed where it lies within
+  // the displacement bound of that placement, grown with the drift of the
+  // links between them by at most kMaxDriftFactor (link_confirmation.h): its
+  // image pairs then stay in the merged model and close the loop there.
+  constexpr double kMaxDriftFactor = 1.5;
+  false_pairs_ = ConfirmRejectedLinks(
+      similarities_,
+      averaging_,
+      options_.similarity_averaging.max_relative_displacement,
+      kMaxDriftFactor);
   if (!false_pairs_.empty()) {
     LOG(INFO) << StringPrintf(
         "%d image pairs between communities support only rejected "

@@ -76,19 +76,6 @@ struct CommunityMergerOptions {
   // The check that an alignment explains which images were matched.
   CovisibilityCheckOptions covisibility_check;
 
-  // A similarity the co-visibility check rejected, between two communities
-  // that the averaging joins through other links, is confirmed where it
-  // lies within the averaging's displacement bound of that placement
-  // (link_confirmation.h): its image pairs then
-  // stay in the merged model and close the loop there. False: every rejected
-  // similarity's pairs are left out.
-  bool confirm_rejected_links = true;
-
-  // That bound grows with the drift the links between the two communities
-  // may have accumulated, as the square root of their effective resistance
-  // (the number of links on a path), at most by this factor.
-  double rejected_link_max_drift_factor = 1.5;
-
   // Global similarity averaging and the links it keeps.
   SimilarityAveragingOptions similarity_averaging;
 

@@ -120,22 +120,23 @@ int NumVisiblePoints(const ImageView& view,
 // How a pair of images is predicted to see the other's points.
 enum class Covisibility { kNone, kWideViews, kCloseViews };
 
-// Co-visible where each sees at least `min_num_points` of the other's
-// points; close views where their rays to those points are on average at
-// most `close_ray_angle_deg` apart.
+// Co-visible where each sees at least kMinNumPoints of the other's points;
+// close views where their rays to those points are on average at most
+// `close_ray_angle_deg` apart.
 Covisibility PredictCovisibility(const ImageView& view1,
                                  const ImageView& view2,
                                  const CovisibilityCheckOptions& options) {
+  constexpr int kMinNumPoints = 15;
   const double min_cos = std::cos(DegToRad(options.max_ray_angle_deg));
   double sum_ray_angles = 0;
   const int num_visible1 =
       NumVisiblePoints(view1, view2, min_cos, &sum_ray_angles);
-  if (num_visible1 < options.min_num_points) {
+  if (num_visible1 < kMinNumPoints) {
     return Covisibility::kNone;
   }
   const int num_visible2 =
       NumVisiblePoints(view2, view1, min_cos, &sum_ray_angles);
-  if (num_visible2 < options.min_num_points) {
+  if (num_visible2 < kMinNumPoints) {
     return Covisibility::kNone;
   }
   const double mean_ray_angle = sum_ray_angles / (num_visible1 + num_visible2);
@@ -217,8 +218,8 @@ void CountInternalPairs(
       }
     }
   }
-  const size_t step = std::max<size_t>(
-      1, near_pairs.size() / std::max(1, options.max_num_internal_pairs));
+  // At most 2000 pairs inside each model are tested for its rate.
+  const size_t step = std::max<size_t>(1, near_pairs.size() / 2000);
   for (size_t k = 0; k < near_pairs.size(); k += step) {
     const ImageView& view1 = views[near_pairs[k].first];
     const ImageView& view2 = views[near_pairs[k].second];
@@ -229,13 +230,10 @@ void CountInternalPairs(
 }  // namespace
 
 bool CovisibilityCheckOptions::Check() const {
-  CHECK_OPTION_GT(min_num_points, 0);
   CHECK_OPTION_GT(max_ray_angle_deg, 0);
   CHECK_OPTION_LE(max_ray_angle_deg, 180);
   CHECK_OPTION_GT(max_distance_quantile, 0);
   CHECK_OPTION_LE(max_distance_quantile, 1);
-  CHECK_OPTION_GT(max_num_points_per_image, 0);
-  CHECK_OPTION_GT(max_num_internal_pairs, 0);
   if (!CheckFlag(min_rate_ratio >= 0,
                  "covisibility_min_rate_ratio",
                  min_rate_ratio,
@@ -271,12 +269,11 @@ CovisibilityCheck CheckCovisibility(
     const CovisibilityCheckOptions& options) {
   THROW_CHECK(options.Check());
   CovisibilityCheck check;
+  constexpr int kMaxNumPointsPerImage = 200;
   const std::vector<ImageView> views1 =
-      ImageViews(reconstruction1, Sim3d(), options.max_num_points_per_image);
-  const std::vector<ImageView> views2 =
-      ImageViews(reconstruction2,
-                 Inverse(second_from_first),
-                 options.max_num_points_per_image);
+      ImageViews(reconstruction1, Sim3d(), kMaxNumPointsPerImage);
+  const std::vector<ImageView> views2 = ImageViews(
+      reconstruction2, Inverse(second_from_first), kMaxNumPointsPerImage);
 
   const double max_distance =
       std::max(VerifiedPairDistanceQuantile(

@@ -13,7 +13,8 @@
 //
 // Here the question is asked per image pair. With both models in one frame,
 // a pair of images is predicted co-visible when each sees at least
-// `min_num_points` of the other's 3D points in front of it, inside its
+// 15 of the other's 3D points (of at most 200 per image, evenly chosen) in
+// front of it, inside its
 // image, not behind the surfaces it sees there itself (a coarse depth map
 // from its own points; where it sees nothing, nothing is predicted), under
 // rays less than `max_ray_angle_deg` apart (features are not matched
@@ -43,10 +44,6 @@
 namespace colmap {
 
 struct CovisibilityCheckOptions {
-  // Points of the other image that must project into an image for the pair
-  // to be predicted co-visible.
-  int min_num_points = 15;
-
   // Largest angle between the two images' rays to a point for it to count:
   // beyond about 45 degrees of viewpoint change SIFT seldom matches
   // (Morel and Yu, "ASIFT", SIAM J. Imaging Sciences 2009), and an
@@ -60,12 +57,6 @@ struct CovisibilityCheckOptions {
   // Pairs are tested up to this quantile of the centre distances of the
   // verified pairs inside the models.
   double max_distance_quantile = 0.9;
-
-  // At most this many points per image are projected (evenly chosen).
-  int max_num_points_per_image = 200;
-
-  // At most this many pairs inside each model are tested for its rate.
-  int max_num_internal_pairs = 2000;
 
   // The alignment is rejected when the cross rate is below this fraction of
   // the internal rate... The default is low: a wrong alignment of identical

@@ -81,11 +81,7 @@ bool PairwiseSimilarityOptions::Check() const {
                  "at least 3")) {
     return false;
   }
-  CHECK_OPTION_GE(min_inlier_ratio, 0);
-  CHECK_OPTION_LE(min_inlier_ratio, 1);
   CHECK_OPTION_GE(max_num_hypotheses, 1);
-  CHECK_OPTION_GT(max_shared_image_rotation_deg, 0);
-  CHECK_OPTION_GT(max_shared_image_relative_distance, 0);
   return true;
 }
 
@@ -107,7 +103,8 @@ PairwiseSimilarity EstimatePairwiseSimilarity(
 
   RANSACOptions ransac_options;
   ransac_options.max_error = options.max_relative_error * spread;
-  ransac_options.min_inlier_ratio = options.min_inlier_ratio;
+  // A lower bound of the inlier ratio, which bounds the number of trials.
+  ransac_options.min_inlier_ratio = 0.1;
   ransac_options.max_num_trials = 10000;
   Sim3d second_from_first;
   const auto report = EstimateSim3dRobust(correspondences.points1,
@@ -190,13 +187,12 @@ int CountSupportingImages(
   return static_cast<int>(std::min(images1.size(), images2.size()));
 }
 
-SharedImageAgreement CheckSharedImages(
-    const Reconstruction& reconstruction1,
-    const Reconstruction& reconstruction2,
-    const Sim3d& second_from_first,
-    const double spread,
-    const PairwiseSimilarityOptions& options) {
-  THROW_CHECK(options.Check());
+SharedImageAgreement CheckSharedImages(const Reconstruction& reconstruction1,
+                                       const Reconstruction& reconstruction2,
+                                       const Sim3d& second_from_first,
+                                       const double spread) {
+  constexpr double kMaxRotationDeg = 10.0;
+  constexpr double kMaxRelativeDistance = 1.0;
   THROW_CHECK_GT(spread, 0);
   SharedImageAgreement agreement;
   for (const image_t image_id : reconstruction1.RegImageIds()) {
@@ -218,8 +214,8 @@ SharedImageAgreement CheckSharedImages(
     const double relative_distance =
         (predicted_center - image2.ProjectionCenter()).norm() / spread;
     ++agreement.num_shared_images;
-    if (rotation_deg <= options.max_shared_image_rotation_deg &&
-        relative_distance <= options.max_shared_image_relative_distance) {
+    if (rotation_deg <= kMaxRotationDeg &&
+        relative_distance <= kMaxRelativeDistance) {
       ++agreement.num_agreeing;
     }
     agreement.max_rotation_deg =

@@ -65,13 +65,9 @@ struct PairwiseSimilarityOptions {
   // Inlier threshold as a fraction of the correspondences' spread.
   double max_relative_error = 0.05;
 
-  // An a priori lower bound of the inlier ratio, which bounds the number of
-  // RANSAC trials.
-  double min_inlier_ratio = 0.1;
-
   // Minimum number of inlier correspondences for a usable transform. A
   // transform with few inliers still counts for less in the averaging
-  // (SimilarityAveragingOptions::full_support_num_inliers) and is judged by
+  // (kFullSupportNumInliers, similarity_averaging.h) and is judged by
   // where it puts its points, so a weak link closing a loop can be used.
   int min_num_inliers = 10;
 
@@ -80,16 +76,6 @@ struct PairwiseSimilarityOptions {
   // two communities are linked by true matches and by matches of repeated
   // structure, the latter can have the larger support).
   int max_num_hypotheses = 3;
-
-  // A shared image (registered by both reconstructions) agrees with a
-  // transform if the transform maps its pose in the first onto its pose in
-  // the second within this rotation (degrees) and this distance, as a
-  // fraction of the correspondences' spread in the second (see
-  // CheckSharedImages). The defaults lie between how far right links place
-  // their shared images (an open chain's drifting ends included) and how
-  // far wrongly registered images are off.
-  double max_shared_image_rotation_deg = 10.0;
-  double max_shared_image_relative_distance = 1.0;
 
   bool Check() const;
 };
@@ -135,14 +121,16 @@ struct SharedImageAgreement {
   bool AllAgree() const { return num_agreeing == num_shared_images; }
 };
 
-// `spread`: the distance unit, the correspondences' spread in the second
-// reconstruction (MedianDistanceToMedian).
-SharedImageAgreement CheckSharedImages(
-    const Reconstruction& reconstruction1,
-    const Reconstruction& reconstruction2,
-    const Sim3d& second_from_first,
-    double spread,
-    const PairwiseSimilarityOptions& options);
+// A shared image (registered by both reconstructions) agrees with a
+// transform if the transform maps its pose in the first onto its pose in the
+// second within 10 degrees and one `spread` (the correspondences' spread in
+// the second, MedianDistanceToMedian): between how far right links place
+// their shared images, an open chain's drifting ends included, and how far
+// wrongly registered images are off.
+SharedImageAgreement CheckSharedImages(const Reconstruction& reconstruction1,
+                                       const Reconstruction& reconstruction2,
+                                       const Sim3d& second_from_first,
+                                       double spread);
 
 // The fewer, over the two reconstructions, of the registered images that
 // observe the points of `point3D_ids` (pairs of ids in the first and the

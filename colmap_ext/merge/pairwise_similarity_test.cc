@@ -150,10 +150,9 @@ TEST_F(PairwiseSimilarityTest, SharedImagesConfirmOnlyTheRightTransform) {
   }
   const double spread = MedianDistanceToMedian(points2);
   const Sim3d truth = community2_from_world_ * Inverse(community1_from_world_);
-  const PairwiseSimilarityOptions options;
 
   SharedImageAgreement agreement =
-      CheckSharedImages(model1, model2, truth, spread, options);
+      CheckSharedImages(model1, model2, truth, spread);
   EXPECT_EQ(agreement.num_shared_images, 3);
   EXPECT_EQ(agreement.num_agreeing, 3);
   EXPECT_TRUE(agreement.AllAgree());
@@ -166,7 +165,7 @@ TEST_F(PairwiseSimilarityTest, SharedImagesConfirmOnlyTheRightTransform) {
                                 DegToRad(20.0), Eigen::Vector3d::UnitY())),
                             Eigen::Vector3d::Zero()) *
                       truth;
-  agreement = CheckSharedImages(model1, model2, wrong, spread, options);
+  agreement = CheckSharedImages(model1, model2, wrong, spread);
   EXPECT_EQ(agreement.num_agreeing, 0);
   EXPECT_NEAR(agreement.max_rotation_deg, 20.0, 1e-6);
 
@@ -180,7 +179,7 @@ TEST_F(PairwiseSimilarityTest, SharedImagesConfirmOnlyTheRightTransform) {
       .SetCamFromWorld(turned.CameraId(),
                        Rigid3d(turn * cam_from_world.rotation(),
                                turn * cam_from_world.translation()));
-  agreement = CheckSharedImages(model1, model2, truth, spread, options);
+  agreement = CheckSharedImages(model1, model2, truth, spread);
   EXPECT_EQ(agreement.num_shared_images, 3);
   EXPECT_EQ(agreement.num_agreeing, 2);
   EXPECT_FALSE(agreement.AllAgree());

@@ -14,23 +14,21 @@
 #include <map>
 #include <numeric>
 
-#include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 
 namespace colmap {
 namespace {
 
 // Solves x_i - x_j = b_e (dim rows per edge e = (i, j), weighted by
-// edge_weights[e]) over the nodes of one connected part, in L1 or least
-// squares, with x_reference = 0. `x` has dim entries per node of the part,
-// in the order of `nodes`.
+// edge_weights[e]) over the nodes of one connected part in L1 (COLMAP's
+// least absolute deviations solver), with x_reference = 0. `x` has dim entries
+// per node of the part, in the order of `nodes`.
 bool SolveDifferenceSystem(const std::vector<int>& nodes,
                            const std::vector<std::pair<int, int>>& edges,
                            const std::vector<double>& edge_weights,
                            const int dim,
                            const int reference,
                            const Eigen::VectorXd& b,
-                           const bool least_squares,
                            Eigen::VectorXd* x) {
   std::map<int, int> column;  // node -> variable block, reference excluded
   for (const int node : nodes) {
@@ -65,24 +63,14 @@ bool SolveDifferenceSystem(const std::vector<int>& nodes,
     weighted_b.segment(dim * e, dim) *= edge_weights[e];
   }
 
-  Eigen::VectorXd solution;
-  if (least_squares) {
-    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(A.transpose() *
-                                                              A);
-    if (solver.info() != Eigen::Success) {
-      return false;
-    }
-    solution = solver.solve(A.transpose() * weighted_b);
-  } else {
-    LeastAbsoluteDeviationSolver::Options l1_options;
-    l1_options.max_num_iterations = 20000;
-    l1_options.absolute_tolerance = 1e-12;
-    l1_options.relative_tolerance = 1e-10;
-    const LeastAbsoluteDeviationSolver solver(l1_options, A);
-    solution = Eigen::VectorXd::Zero(A.cols());
-    if (!solver.Solve(weighted_b, &solution)) {
-      return false;
-    }
+  LeastAbsoluteDeviationSolver::Options l1_options;
+  l1_options.max_num_iterations = 20000;
+  l1_options.absolute_tolerance = 1e-12;
+  l1_options.relative_tolerance = 1e-10;
+  const LeastAbsoluteDeviationSolver solver(l1_options, A);
+  Eigen::VectorXd solution = Eigen::VectorXd::Zero(A.cols());
+  if (!solver.Solve(weighted_b, &solution)) {
+    return false;
   }
 
   for (size_t k = 0; k < nodes.size(); ++k) {
@@ -149,7 +137,6 @@ bool AveragePart(const std::vector<int>& nodes,
                                /*dim=*/1,
                                reference,
                                b,
-                               options.least_squares,
                                &log_scales)) {
       return false;
     }
@@ -198,7 +185,6 @@ bool AveragePart(const std::vector<int>& nodes,
                              /*dim=*/3,
                              reference,
                              b,
-                             options.least_squares,
                              &translations)) {
     return false;
   }
@@ -252,20 +238,15 @@ bool EdgeWithinBound(const SimilarityAveragingResult::EdgeReport& report,
 
 namespace {
 
-// Images both communities registered that the two models place elsewhere
-// under the edge's similarity.
-int NumSharedImagesPlacedElsewhere(const RelativeSimilarity& edge) {
-  return edge.num_shared_images - edge.num_agreeing_shared_images;
-}
-
-// Whether at least `min_num_agreeing` of the images both communities of
-// `edge` registered are placed alike under its similarity and at most
-// `max_num_disagreeing` are not.
-bool SharedImagesConfirm(const RelativeSimilarity& edge,
-                         const int min_num_agreeing,
-                         const int max_num_disagreeing) {
-  return edge.num_agreeing_shared_images >= min_num_agreeing &&
-         NumSharedImagesPlacedElsewhere(edge) <= max_num_disagreeing;
+// Whether the images both communities of `edge` registered contradict its
+// similarity: at least two of them, and no fewer than are placed alike, are
+// placed elsewhere by the two models under it. One image placed elsewhere
+// can be one misregistered image; more, and a majority, mean that the
+// similarity or one of its models is wrong where the two overlap.
+bool SharedImagesContradict(const RelativeSimilarity& edge) {
+  const int num_elsewhere =
+      edge.num_shared_images - edge.num_agreeing_shared_images;
+  return num_elsewhere >= 2 && num_elsewhere >= edge.num_agreeing_shared_images;
 }
 
 }  // namespace
@@ -278,8 +259,6 @@ bool SimilarityAveragingOptions::Check() const {
                  "positive")) {
     return false;
   }
-  CHECK_OPTION_GE(min_num_shared_images_on_bridge, 0);
-  CHECK_OPTION_GT(full_support_num_inliers, 0);
   return true;
 }
 
@@ -310,9 +289,9 @@ std::vector<double> EdgeWeights(
     if (edge.num_supporting_images > 0) {
       support = std::min<double>(support, edge.num_supporting_images);
     }
-    edge_weights[e] =
-        support *
-        std::min(1.0, edge.num_inliers / options.full_support_num_inliers);
+    edge_weights[e] = support * std::min(1.0,
+                                         static_cast<double>(edge.num_inliers) /
+                                             kFullSupportNumInliers);
     max_weight = std::max(max_weight, edge_weights[e]);
   }
   for (double& weight : edge_weights) {
@@ -476,17 +455,10 @@ struct AveragingRounds {
       if (!result.edges[e].kept) {
         continue;
       }
-      // Full support stands in for the shared images where there are few,
-      // and a minority of them placed elsewhere (borrowed images at the edge
-      // of a drifting community, placed just too far off to agree) does not
-      // veto the edge.
-      const bool full_support =
-          edge.num_inliers >= options.full_support_num_inliers;
-      const int min_num_agreeing =
-          full_support ? 0 : options.min_num_shared_images_on_bridge;
-      const int max_num_disagreeing =
-          std::max(1, edge.num_agreeing_shared_images - 1);
-      if (SharedImagesConfirm(edge, min_num_agreeing, max_num_disagreeing)) {
+      // Full support stands in for the shared images where there are few;
+      // contradicting ones were left out before the averaging.
+      if (edge.num_inliers >= kFullSupportNumInliers ||
+          edge.num_agreeing_shared_images >= 2) {
         continue;
       }
       if (IsBridge(e)) {
@@ -551,8 +523,12 @@ SimilarityAveragingResult AverageSimilarities(
   SimilarityAveragingResult& result = rounds.result;
   result.world_from_community.assign(num_communities, Sim3d());
   result.edges.resize(relative_similarities.size());
-  for (SimilarityAveragingResult::EdgeReport& report : result.edges) {
-    report.kept = true;
+  // The shared images measure an edge's similarity directly: an edge they
+  // contradict is left out before it can pull the averaging its way.
+  for (size_t e = 0; e < relative_similarities.size(); ++e) {
+    result.edges[e].contradicted =
+        SharedImagesContradict(relative_similarities[e]);
+    result.edges[e].kept = !result.edges[e].contradicted;
   }
 
   // Every round rejects at least one edge, or ends the averaging.

@@ -29,6 +29,13 @@
 // alone, never by its own model's statistics: a community bent by drift fits
 // its own observations as well as any.
 //
+// The images both communities registered (shared images) measure an edge's
+// similarity directly: where at least two of them, and no fewer than are
+// placed alike, are placed elsewhere by the two models under it, the
+// similarity or one of its models is wrong where the two overlap, and the
+// edge is left out before the averaging (with many inliers from misplaced
+// images it could win over the right links of its cycle).
+//
 // Afterwards, an edge is judged by where the averaging puts its own inlier
 // points: the two communities' copies of each point, both placed in the
 // world frame, must lie within a fifth of their spread of each other (the
@@ -40,13 +47,11 @@
 // wrong until they are out), until every edge on a cycle is within it. An
 // edge on no cycle of kept edges (a bridge) is fitted as it is, right or
 // wrong, so the bound cannot judge it: the images both communities
-// registered do. It is kept if at least two of them are placed alike by the
-// two models under its similarity and at most one is not; full support (many
-// inliers) stands in for the images placed alike, and fewer placed elsewhere
-// than alike do not veto it. If the kept edges no longer connect all
-// communities, every connected part gets its own frame, since a wrong merge
-// is worse than two models. A link the averaging dropped can still be
-// confirmed against the result (link_confirmation.h), and the global
+// registered do: it is kept if at least two of them are placed alike (full
+// support, many inliers, stands in for them). If the kept edges no longer
+// connect all communities, every connected part gets its own frame, since a
+// wrong merge is worse than two models. A link the averaging dropped can still
+// be confirmed against the result (link_confirmation.h), and the global
 // refinement over all images judges what the averaging kept.
 
 #pragma once
@@ -62,6 +67,12 @@
 
 namespace colmap {
 
+// An edge with fewer inliers than this counts with its weight (the images it
+// rests on) times num_inliers / kFullSupportNumInliers, and a bridge with
+// fewer needs two of its shared images placed alike: a hundred points fitted
+// by one similarity do not fit by chance.
+inline constexpr int kFullSupportNumInliers = 100;
+
 // A community as the averaging sees it.
 struct AveragedCommunity {
   // Registered images of its model: the most its edges can weigh (see
@@ -74,27 +85,11 @@ struct SimilarityAveragingOptions {
   // Rotation averaging (L1RA + IRLS).
   RotationAveragingOptions rotation;
 
-  // Solve the scale and translation problems in least squares instead of
-  // L1 (for comparison only: not robust to wrong edges).
-  bool least_squares = false;
-
   // An edge on a cycle is rejected when, after averaging, the median
   // distance between the two placements of its inlier points exceeds this
   // fraction of their spread (EdgeReport::relative_displacement), the worst
   // of each part first.
   double max_relative_displacement = 0.2;
-
-  // An edge with fewer inliers than this counts with its weight (the images
-  // it rests on) times num_inliers / full_support_num_inliers (and a bridge
-  // needs its shared images to confirm it, see below).
-  double full_support_num_inliers = 100;
-
-  // An edge that lies on no cycle of kept edges (a bridge) is dropped unless
-  // at least this many of the images both communities registered are placed
-  // alike by the two models under its similarity and at most one is not
-  // (`full_support_num_inliers` inliers stand in for the former, and fewer
-  // placed elsewhere than alike are then allowed).
-  int min_num_shared_images_on_bridge = 2;
 
   bool Check() const;
 };
@@ -111,8 +106,13 @@ struct SimilarityAveragingResult {
     double log_scale_residual = 0.0;
     // Whether the edge joins its communities in the result.
     bool kept = false;
+    // Left out from the start: the images both communities registered
+    // contradict it (at least two, and no fewer than are placed alike, are
+    // placed elsewhere by the two models under its similarity).
+    bool contradicted = false;
     // Dropped because nothing confirms it: no cycle of kept edges passes
-    // through it, and its shared images disagree or are too few.
+    // through it, and fewer than two of its shared images are placed alike
+    // (without kFullSupportNumInliers inliers to stand in for them).
     bool unconfirmed = false;
   };
 

@@ -13,6 +13,9 @@
 namespace colmap {
 namespace {
 
+// Bound on the recursion depth, a guard against pathological inputs.
+constexpr int kMaxRecursionDepth = 32;
+
 #define IGRAPH_CALL(expr)                                                 \
   do {                                                                    \
     const igraph_error_t igraph_status = (expr);                          \
@@ -179,75 +182,32 @@ void MergeSmallCommunities(const WeightedGraph& graph,
   }
 }
 
-// Judges whether the parts of `membership` (labels of the vertices of
-// `graph`) are communities: the conductance cut(P) / vol(P) of every part P
-// within `graph` (weighted; the parts under min_community_size counted with
-// the sibling MergeSmallCommunities gives them) must be at most
-// max_part_conductance. While one is not, the worst part joins the sibling
-// it has the most edge weight to if it holds at most
-// max_joined_part_fraction of the vertices; a larger one refuses the split
-// (returns false, `membership` unchanged). Records in `record` the largest
-// conductance before any join and, where the split stands, the number of
-// joins.
-bool JoinSmallPartsThatAreNotCommunities(
-    const WeightedGraph& graph,
-    const CommunityDetectionOptions& options,
-    std::vector<int>* membership,
-    CommunityPartition::Split* record) {
-  std::vector<int> joined = *membership;
-  for (int num_joined = 0;; ++num_joined) {
-    std::vector<int> merged = joined;
-    MergeSmallCommunities(graph, options.min_community_size, &merged);
-    std::map<int, double> volume;
-    std::map<int, std::map<int, double>> cross;
-    for (const auto& edge : graph.edges) {
-      const int label1 = merged[edge.vertex1];
-      const int label2 = merged[edge.vertex2];
-      volume[label1] += edge.weight;
-      volume[label2] += edge.weight;
-      if (label1 != label2) {
-        cross[label1][label2] += edge.weight;
-        cross[label2][label1] += edge.weight;
-      }
-    }
-    int worst = -1;
-    double worst_conductance = 0.0;
-    for (const auto& label_and_cross : cross) {
-      double cut = 0.0;
-      for (const auto& other_and_weight : label_and_cross.second) {
-        cut += other_and_weight.second;
-      }
-      const double conductance = cut / volume.at(label_and_cross.first);
-      if (conductance > worst_conductance) {
-        worst = label_and_cross.first;
-        worst_conductance = conductance;
-      }
-    }
-    if (num_joined == 0) {
-      record->max_part_conductance = worst_conductance;
-    }
-    if (worst == -1 || worst_conductance <= options.max_part_conductance) {
-      *membership = std::move(joined);
-      record->num_joined_parts = num_joined;
-      return true;
-    }
-    const auto worst_size = std::count(merged.begin(), merged.end(), worst);
-    if (worst_size > options.max_joined_part_fraction * graph.num_vertices) {
-      return false;
-    }
-    const std::map<int, double>& worst_cross = cross.at(worst);
-    const int target = std::max_element(worst_cross.begin(),
-                                        worst_cross.end(),
-                                        [](const auto& a, const auto& b) {
-                                          return a.second < b.second;
-                                        })
-                           ->first;
-    for (size_t vertex = 0; vertex < merged.size(); ++vertex) {
-      if (merged[vertex] == worst) {
-        joined[vertex] = target;
-      }
+// The largest conductance cut(P) / vol(P) of a part P of `membership`
+// (labels of the vertices of `graph`) within `graph` (weighted), the parts
+// under min_community_size counted with the sibling MergeSmallCommunities
+// gives them.
+double MaxPartConductance(const WeightedGraph& graph,
+                          const int min_community_size,
+                          const std::vector<int>& membership) {
+  std::vector<int> merged = membership;
+  MergeSmallCommunities(graph, min_community_size, &merged);
+  std::map<int, double> volume;
+  std::map<int, double> cut;
+  for (const auto& edge : graph.edges) {
+    const int label1 = merged[edge.vertex1];
+    const int label2 = merged[edge.vertex2];
+    volume[label1] += edge.weight;
+    volume[label2] += edge.weight;
+    if (label1 != label2) {
+      cut[label1] += edge.weight;
+      cut[label2] += edge.weight;
     }
   }
+  double max_conductance = 0.0;
+  for (const auto& [label, label_cut] : cut) {
+    max_conductance = std::max(max_conductance, label_cut / volume.at(label));
+  }
+  return max_conductance;
 }
 
 }  // namespace
@@ -309,12 +269,6 @@ bool CommunityDetectionOptions::Check() const {
                      "partition_max_part_conductance",
                      max_part_conductance,
                      "in (0, 1] (1: split by the threshold only)");
-  valid &= CheckFlag(
-      max_joined_part_fraction >= 0 && max_joined_part_fraction < 1,
-      "partition_max_joined_part_fraction",
-      max_joined_part_fraction,
-      "in [0, 1)");
-  CHECK_OPTION_GE(max_recursion_depth, 0);
   return valid;
 }
 
@@ -378,7 +332,7 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
     const WeightedGraph subgraph = graph.InducedSubgraph(current.vertices);
     bool split = false;
     if (subgraph.num_vertices >= 2 && !subgraph.edges.empty() &&
-        current.depth < options.max_recursion_depth) {
+        current.depth < kMaxRecursionDepth) {
       const GraphPartitioner::Result result = partitioner.Partition(subgraph);
       CommunityPartition::Split record;
       record.depth = current.depth;
@@ -386,17 +340,15 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
       record.num_edges = static_cast<int>(subgraph.edges.size());
       record.modularity = result.modularity;
       record.num_parts = result.num_communities;
-      // A split by the threshold whose parts are communities, once the
-      // small parts that are not have joined a sibling.
+      // A split by the threshold whose parts are communities.
       std::vector<int> membership = result.membership;
       int num_parts = result.num_communities;
       if (result.num_communities > 1 &&
-          result.modularity > options.modularity_threshold &&
-          JoinSmallPartsThatAreNotCommunities(
-              subgraph, options, &membership, &record)) {
-        membership = RelabelBySize(membership);
-        num_parts = 1 + *std::max_element(membership.begin(), membership.end());
-        record.accepted = num_parts > 1;
+          result.modularity > options.modularity_threshold) {
+        record.max_part_conductance = MaxPartConductance(
+            subgraph, options.min_community_size, result.membership);
+        record.accepted =
+            record.max_part_conductance <= options.max_part_conductance;
       }
       if (!record.accepted && result.num_communities > 1 && !current.balanced &&
           current.vertices.size() >
@@ -408,15 +360,11 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
         std::sort(part_sizes.begin(), part_sizes.end(), std::greater<int>());
         record.balance = part_sizes[1] >= options.min_community_size;
         record.accepted = record.balance;
-        // CNM's parts as they are (even where small ones were joined into
-        // one part above).
-        membership = result.membership;
-        num_parts = result.num_communities;
       }
       partition.splits.push_back(record);
       LOG(INFO) << StringPrintf(
           "%*sSplit %d images (%d edges): Qmax = %.4f, %d parts (largest "
-          "conductance %.3f, %d joined) -> %s",
+          "conductance %.3f) -> %s",
           2 * current.depth,
           "",
           record.num_vertices,
@@ -424,7 +372,6 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
           record.modularity,
           record.num_parts,
           record.max_part_conductance,
-          record.num_joined_parts,
           record.balance ? "split (more than its share of the component)"
           : record.accepted
               ? "split"

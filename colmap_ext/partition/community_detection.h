@@ -103,20 +103,6 @@ struct CommunityDetectionOptions {
   // 1: the threshold alone, as the paper.
   double max_part_conductance = 0.3;
 
-  // A part above max_part_conductance that holds at most this fraction of
-  // the split graph does not refuse the split: it joins the sibling it has
-  // the most edge weight to (the worst first, until every part is within
-  // the bound). A short piece of walkway between two landmarks is no
-  // community of its own, but the landmarks are: refusing the split for it
-  // would keep two landmarks in one community. The default is small: a
-  // larger part with that much of its weight leading to its siblings, such
-  // as half of a landmark's cluster, is a community cut in two, and the
-  // split must be refused. 0: every such part refuses the split.
-  double max_joined_part_fraction = 0.1;
-
-  // Bound on the recursion depth, a guard against pathological inputs.
-  int max_recursion_depth = 32;
-
   bool Check() const;
 };
 
@@ -131,10 +117,8 @@ struct CommunityPartition {
     double modularity = 0.0;
     int num_parts = 1;
     // Where Qmax exceeds the threshold: the largest conductance of a part
-    // within the split graph (see max_part_conductance; 0 otherwise) and
-    // the number of small parts that joined a sibling for it.
+    // within the split graph (see max_part_conductance; 0 otherwise).
     double max_part_conductance = 0.0;
-    int num_joined_parts = 0;
     // Whether the graph was split: modularity exceeded the threshold, or
     // the graph held too large a share of its component (`balance`).
     bool accepted = false;

@@ -485,10 +485,9 @@ TEST(DetectCommunities, SplitWhosePartsAreNotCommunitiesIsRefused) {
       2);
 }
 
-TEST(DetectCommunities, SmallPartThatIsNotACommunityJoinsASibling) {
+TEST(DetectCommunities, APartThatIsNoCommunityRefusesTheSplit) {
   // Two cliques of 40 joined through a clique of 8 that has 40 edges to
-  // each: the connector is no community (conductance 40 * 2 / (56 + 80)),
-  // but holds less than a tenth of the graph; the two large cliques are.
+  // each: the connector is no community (conductance 40 * 2 / (56 + 80)).
   WeightedGraph graph;
   AddClique(/*first=*/0, /*size=*/40, /*weight=*/1, &graph);
   AddClique(/*first=*/40, /*size=*/8, /*weight=*/1, &graph);
@@ -506,19 +505,12 @@ TEST(DetectCommunities, SmallPartThatIsNotACommunityJoinsASibling) {
   EXPECT_EQ(NumCommunitiesAmong(paper, 40, 8), 1);
 
   options.max_part_conductance = 0.3;
-  const CommunityPartition joined =
+  const CommunityPartition refused =
       DetectCommunities(graph, GreedyModularityPartitioner(), options);
-  EXPECT_EQ(joined.NumCommunities(), 2);
-  ASSERT_FALSE(joined.splits.empty());
-  EXPECT_EQ(joined.splits[0].num_joined_parts, 1);
-  EXPECT_EQ(NumCommunitiesAmong(joined, 0, 40), 1);
-  EXPECT_EQ(NumCommunitiesAmong(joined, 48, 40), 1);
-  EXPECT_NE(joined.membership[0], joined.membership[48]);
-
-  options.max_joined_part_fraction = 0;
-  EXPECT_EQ(DetectCommunities(graph, GreedyModularityPartitioner(), options)
-                .NumCommunities(),
-            1);
+  EXPECT_EQ(refused.NumCommunities(), 1);
+  ASSERT_FALSE(refused.splits.empty());
+  EXPECT_GT(refused.splits[0].max_part_conductance, 0.3);
+  EXPECT_FALSE(refused.splits[0].accepted);
 }
 
 // The smallest share of a landmark cluster's images that one community
@@ -597,8 +589,6 @@ TEST(CommunityDetectionOptions, Check) {
   options.max_part_conductance = 1.5;
   EXPECT_FALSE(options.Check());
   options.max_part_conductance = 0.3;
-  options.max_joined_part_fraction = 1;
-  EXPECT_FALSE(options.Check());
 }
 
 }  // namespace

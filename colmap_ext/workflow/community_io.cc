@@ -32,13 +32,12 @@ std::string CommunitiesToText(const ViewGraph& view_graph,
   for (const CommunityPartition::Split& split : partition.splits) {
     text << StringPrintf(
         "#   depth %d: %d images, Qmax %.4f, %d parts (largest conductance "
-        "%.3f, %d joined), %s\n",
+        "%.3f), %s\n",
         split.depth,
         split.num_vertices,
         split.modularity,
         split.num_parts,
         split.max_part_conductance,
-        split.num_joined_parts,
         split.balance    ? "split (balance)"
         : split.accepted ? "split"
                          : "not split");
