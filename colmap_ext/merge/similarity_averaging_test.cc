@@ -417,15 +417,15 @@ TEST(AverageSimilarities, BridgeNeedsItsSharedImages) {
                 .NumParts(),
             1);
 
-  // 3 of the 6 images communities 1 and 2 share placed elsewhere: that edge
-  // goes, community 2 stands alone.
+  // 3 of the 6 images communities 1 and 2 share placed elsewhere: they
+  // contradict that edge, which goes, and community 2 stands alone.
   const int edge12 =
       std::max(path[0].community1, path[0].community2) == 2 ? 0 : 1;
   path[edge12].num_agreeing_shared_images = 3;
   SimilarityAveragingResult result =
       AverageSimilarities(communities, path, SimilarityAveragingOptions());
   EXPECT_FALSE(result.edges[edge12].kept);
-  EXPECT_TRUE(result.edges[edge12].unconfirmed);
+  EXPECT_TRUE(result.edges[edge12].contradicted);
   EXPECT_TRUE(result.edges[1 - edge12].kept);
   EXPECT_EQ(result.NumParts(), 2);
   EXPECT_EQ(result.part_of_community[0], result.part_of_community[1]);
@@ -468,6 +468,77 @@ TEST(AverageSimilarities, BridgeNeedsItsSharedImages) {
   result =
       AverageSimilarities(communities, cycle, SimilarityAveragingOptions());
   EXPECT_EQ(result.NumParts(), 1);
+}
+
+// Turns and moves `community`'s side of `edge` by `bend`, as if its model
+// had been misplaced where the two overlap.
+void MisplaceSide(const int community,
+                  const Sim3d& bend,
+                  RelativeSimilarity* edge) {
+  if (edge->community2 == community) {
+    edge->second_from_first = bend * edge->second_from_first;
+    for (Eigen::Vector3d& point : edge->points2) {
+      point = bend * point;
+    }
+  } else {
+    edge->second_from_first = edge->second_from_first * Inverse(bend);
+    for (Eigen::Vector3d& point : edge->points1) {
+      point = bend * point;
+    }
+  }
+}
+
+// Shared images that contradict an edge leave it out before the averaging,
+// on a cycle too: two edges wrong alike around one community outweigh its
+// right one in the averaging, and would place it wrong.
+TEST(AverageSimilarities, EdgesTheirSharedImagesContradictAreLeftOut) {
+  // Four communities, every pair linked; the links of community 2 to 0 and
+  // 1 place it turned by 40 degrees and moved, the rest are right.
+  Problem problem = MakeProblem(4, 0, Noise(), 0, 31);
+  std::vector<RelativeSimilarity> edges;
+  for (const RelativeSimilarity& edge : problem.edges) {
+    if (FindEdge(Problem{{}, edges, {}, {}}, edge.community1, edge.community2) <
+        0) {
+      edges.push_back(edge);
+    }
+  }
+  problem.edges = edges;
+  ASSERT_EQ(problem.edges.size(), 6);
+  const Sim3d bend(1.0,
+                   Eigen::Quaterniond(Eigen::AngleAxisd(
+                       DegToRad(40.0), Eigen::Vector3d::UnitZ())),
+                   Eigen::Vector3d(5, 0, 0));
+  std::vector<bool> wrong(problem.edges.size(), false);
+  for (size_t e = 0; e < problem.edges.size(); ++e) {
+    RelativeSimilarity& edge = problem.edges[e];
+    edge.num_shared_images = 6;
+    edge.num_agreeing_shared_images = 6;
+    const int other = edge.community1 == 2
+                          ? edge.community2
+                          : (edge.community2 == 2 ? edge.community1 : -1);
+    if (other == 0 || other == 1) {
+      MisplaceSide(2, bend, &edge);
+      edge.num_agreeing_shared_images = 2;
+      wrong[e] = true;
+    }
+  }
+  const SimilarityAveragingResult result = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+  EXPECT_EQ(result.NumParts(), 1);
+  for (size_t e = 0; e < problem.edges.size(); ++e) {
+    EXPECT_EQ(result.edges[e].contradicted, wrong[e]) << e;
+    EXPECT_EQ(result.edges[e].kept, !wrong[e]) << e;
+  }
+  EXPECT_LT(MaxErrors(result, problem).rotation_deg, 1e-3);
+
+  // Placed alike by their shared images, the two wrong edges outweigh the
+  // right one: community 2 follows them, and its right edge leaves instead.
+  for (size_t e = 0; e < problem.edges.size(); ++e) {
+    problem.edges[e].num_agreeing_shared_images = 6;
+  }
+  const SimilarityAveragingResult unvetoed = AverageSimilarities(
+      problem.Communities(), problem.edges, SimilarityAveragingOptions());
+  EXPECT_GT(MaxErrors(unvetoed, problem).rotation_deg, 10.0);
 }
 
 // Every edge of `problem` but `bent` kept, and every community in one part
