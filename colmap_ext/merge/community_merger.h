@@ -160,7 +160,6 @@ class CommunityMerger {
   void EstimateSimilarities();
   void ReadCommunityModels();
   void AverageSimilarities();
-  void SetAsideExcludedCommunities();
   // Stage 3: every part's model.
   void JoinAndRefineParts();
   std::shared_ptr<Reconstruction> JoinPart(

@@ -37,8 +37,8 @@
 namespace colmap {
 
 struct MergeResiduals {
-  // Whether the averaging put both communities in one part (neither left
-  // the merge); `report` and `path_resistance` are only set then.
+  // Whether the averaging put both communities in one part; `report` and
+  // `path_resistance` are only set then.
   bool joined = false;
   // The rejected transform's residuals under the averaged placement
   // (ComputeEdgeResiduals, similarity_averaging.h).
