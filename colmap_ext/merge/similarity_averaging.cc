@@ -276,16 +276,17 @@ namespace {
 // community a majority of right edges still outweighs a minority of wrong
 // ones, as L1 needs.
 std::vector<double> EdgeWeights(
-    const std::vector<double>& community_weights,
-    const std::vector<RelativeSimilarity>& relative_similarities,
-    const SimilarityAveragingOptions& options) {
+    const std::vector<AveragedCommunity>& communities,
+    const std::vector<RelativeSimilarity>& relative_similarities) {
   constexpr double kWeightRange = 0.4;
   std::vector<double> edge_weights(relative_similarities.size());
   double max_weight = 0;
   for (size_t e = 0; e < relative_similarities.size(); ++e) {
     const RelativeSimilarity& edge = relative_similarities[e];
-    double support = std::min(community_weights[edge.community1],
-                              community_weights[edge.community2]);
+    double support =
+        std::max(1,
+                 std::min(communities[edge.community1].num_images,
+                          communities[edge.community2].num_images));
     if (edge.num_supporting_images > 0) {
       support = std::min<double>(support, edge.num_supporting_images);
     }
@@ -514,12 +515,7 @@ SimilarityAveragingResult AverageSimilarities(
   }
 
   AveragingRounds rounds{communities, relative_similarities, options};
-  std::vector<double> community_weights;
-  for (const AveragedCommunity& community : communities) {
-    community_weights.push_back(std::max(1, community.num_images));
-  }
-  rounds.edge_weights =
-      EdgeWeights(community_weights, relative_similarities, options);
+  rounds.edge_weights = EdgeWeights(communities, relative_similarities);
   SimilarityAveragingResult& result = rounds.result;
   result.world_from_community.assign(num_communities, Sim3d());
   result.edges.resize(relative_similarities.size());

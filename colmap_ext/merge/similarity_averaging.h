@@ -19,15 +19,14 @@
 // points, in the community where they are fewer (at most the weaker
 // community's registered images; a similarity is only as strong as the
 // images it rests on), scaled down if the edge has few inliers, mapped to
-// [0.6, 1] so that a
-// majority of right edges around a community still outweighs a minority of
-// wrong ones. On a cycle that does not close, weighted L1 averaging puts
-// the whole disagreement on the least confident edge instead of spreading
-// it over all (every spread has the same unweighted L1 cost), so the fault
-// is found where it most likely is: in a small community, or a similarity
-// resting on few images or few inliers. A community is judged by its edges
-// alone, never by its own model's statistics: a community bent by drift fits
-// its own observations as well as any.
+// [0.6, 1] so that a majority of right edges around a community still
+// outweighs a minority of wrong ones. On a cycle that does not close, weighted
+// L1 averaging puts the whole disagreement on the least confident edge instead
+// of spreading it over all (every spread has the same unweighted L1 cost), so
+// the fault is found where it most likely is: in a small community, or a
+// similarity resting on few images or few inliers. A community is judged by its
+// edges alone, never by its own model's statistics: a community bent by drift
+// fits its own observations as well as any.
 //
 // The images both communities registered (shared images) measure an edge's
 // similarity directly: where at least two of them, and no fewer than are
@@ -46,7 +45,7 @@
 // (wrong edges pull the solution, so that right ones next to them can look
 // wrong until they are out), until every edge on a cycle is within it. An
 // edge on no cycle of kept edges (a bridge) is fitted as it is, right or
-// wrong, so the bound cannot judge it: the images both communities
+// wrong, so the bound cannot judge it, and the images both communities
 // registered do: it is kept if at least two of them are placed alike (full
 // support, many inliers, stands in for them). If the kept edges no longer
 // connect all communities, every connected part gets its own frame, since a

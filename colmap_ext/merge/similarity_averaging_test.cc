@@ -333,6 +333,24 @@ Problem MakeCycle(const std::vector<int>& sizes, const unsigned seed) {
   return cycle;
 }
 
+// Turns and moves `community`'s side of `edge` by `bend`, as if its model
+// had been misplaced where the two overlap.
+void MisplaceSide(const int community,
+                  const Sim3d& bend,
+                  RelativeSimilarity* edge) {
+  if (edge->community2 == community) {
+    edge->second_from_first = bend * edge->second_from_first;
+    for (Eigen::Vector3d& point : edge->points2) {
+      point = bend * point;
+    }
+  } else {
+    edge->second_from_first = edge->second_from_first * Inverse(bend);
+    for (Eigen::Vector3d& point : edge->points1) {
+      point = bend * point;
+    }
+  }
+}
+
 // Bends the edge's similarity (as a community that broke inside itself
 // bends the transform seen from its far side): 25 degrees and 60% in scale,
 // about what a broken walkway community did to a generated courtyard loop
@@ -343,10 +361,7 @@ void Bend(RelativeSimilarity* edge) {
                    Eigen::Quaterniond(Eigen::AngleAxisd(
                        DegToRad(25.0), Eigen::Vector3d::UnitY())),
                    Eigen::Vector3d::Zero());
-  edge->second_from_first = bend * edge->second_from_first;
-  for (Eigen::Vector3d& point : edge->points2) {
-    point = bend * point;
-  }
+  MisplaceSide(edge->community2, bend, edge);
 }
 
 int FindEdge(const Problem& problem,
@@ -468,24 +483,6 @@ TEST(AverageSimilarities, BridgeNeedsItsSharedImages) {
   result =
       AverageSimilarities(communities, cycle, SimilarityAveragingOptions());
   EXPECT_EQ(result.NumParts(), 1);
-}
-
-// Turns and moves `community`'s side of `edge` by `bend`, as if its model
-// had been misplaced where the two overlap.
-void MisplaceSide(const int community,
-                  const Sim3d& bend,
-                  RelativeSimilarity* edge) {
-  if (edge->community2 == community) {
-    edge->second_from_first = bend * edge->second_from_first;
-    for (Eigen::Vector3d& point : edge->points2) {
-      point = bend * point;
-    }
-  } else {
-    edge->second_from_first = edge->second_from_first * Inverse(bend);
-    for (Eigen::Vector3d& point : edge->points1) {
-      point = bend * point;
-    }
-  }
 }
 
 // Shared images that contradict an edge leave it out before the averaging,
