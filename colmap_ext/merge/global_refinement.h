@@ -28,7 +28,8 @@ namespace colmap {
 
 // The robust adjustment and the retriangulation are COLMAP's GlobalMapper's
 // (IterativeBundleAdjustment, IterativeRetriangulateAndRefine) with its
-// defaults; the intrinsics and rigs they refine follow --Mapper.ba_refine_*.
+// defaults; the intrinsics and rigs they refine follow --Mapper.ba_refine_*,
+// and their adjustments stop at --Mapper.ba_global_function_tolerance.
 GlobalMapperOptions MergedModelRefinementOptions(
     const IncrementalPipelineOptions& mapper_options);
 
