@@ -87,12 +87,11 @@ std::vector<CommunityMapperOption> CommunityMapperOptionTable(
        "threshold only)",
        kShapesPlan,
        kAdvanced},
-      {"ba_function_tolerance",
-       &mapper.ba_function_tolerance,
-       "relative function tolerance at which the global bundle adjustments "
-       "of the communities and of the merge stop (-1: "
-       "Mapper.ba_global_function_tolerance; a plan of one community runs "
-       "the mapper's own)",
+      {"community_ba_function_tolerance",
+       &mapper.community_ba_function_tolerance,
+       "relative function tolerance at which the communities' global bundle "
+       "adjustments stop (-1: Mapper.ba_global_function_tolerance; a plan of "
+       "one community runs the mapper's own)",
        kShapesPlan,
        kAdvanced},
       {"pairwise_max_relative_error",

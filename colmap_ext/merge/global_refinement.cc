@@ -19,10 +19,8 @@ GlobalMapperOptions MergedModelRefinementOptions(
   ba.refine_principal_point = mapper_options.ba_refine_principal_point;
   ba.refine_extra_params = mapper_options.ba_refine_extra_params;
   if (ba.ceres) {
-    // As the incremental mapper's global adjustments: to its tolerance, on
-    // the CPU (the global mapper's default asks for the GPU).
-    ba.ceres->solver_options.function_tolerance =
-        mapper_options.ba_global_function_tolerance;
+    // As the incremental mapper's adjustments: on the CPU (the global
+    // mapper's default asks for the GPU).
     ba.ceres->use_gpu = mapper_options.ba_use_gpu;
     ba.ceres->gpu_index = mapper_options.ba_gpu_index;
   }

@@ -28,8 +28,7 @@ namespace colmap {
 
 // The robust adjustment and the retriangulation are COLMAP's GlobalMapper's
 // (IterativeBundleAdjustment, IterativeRetriangulateAndRefine) with its
-// defaults; the intrinsics and rigs they refine follow --Mapper.ba_refine_*,
-// and their adjustments stop at --Mapper.ba_global_function_tolerance.
+// defaults; the intrinsics and rigs they refine follow --Mapper.ba_refine_*.
 GlobalMapperOptions MergedModelRefinementOptions(
     const IncrementalPipelineOptions& mapper_options);
 

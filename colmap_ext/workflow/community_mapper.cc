@@ -42,10 +42,6 @@ CommunityMergerOptions CommunityMapperController::Options::MergeOptions()
   merge_options.image_names = image_names;
   merge_options.min_num_matches = incremental_options.min_num_matches;
   merge_options.incremental_options = incremental_options;
-  if (ba_function_tolerance >= 0) {
-    merge_options.incremental_options.ba_global_function_tolerance =
-        ba_function_tolerance;
-  }
   return merge_options;
 }
 
@@ -62,8 +58,9 @@ CommunityMapperController::Options::CommunityIncrementalOptions(
   if (community_options.num_threads < 0) {
     community_options.num_threads = num_threads;
   }
-  if (!only_community && ba_function_tolerance >= 0) {
-    community_options.ba_global_function_tolerance = ba_function_tolerance;
+  if (!only_community && community_ba_function_tolerance >= 0) {
+    community_options.ba_global_function_tolerance =
+        community_ba_function_tolerance;
   }
   return community_options;
 }
@@ -77,9 +74,10 @@ bool CommunityMapperController::Options::Check() const {
                      num_workers,
                      "positive, or -1 for one per CPU core");
   valid &=
-      CheckFlag(ba_function_tolerance >= 0 || ba_function_tolerance == -1,
-                "ba_function_tolerance",
-                ba_function_tolerance,
+      CheckFlag(community_ba_function_tolerance >= 0 ||
+                    community_ba_function_tolerance == -1,
+                "community_ba_function_tolerance",
+                community_ba_function_tolerance,
                 "0 or more, or -1 for --Mapper.ba_global_function_tolerance");
   return valid && MergeOptions().Check();  // With incremental_options'.
 }

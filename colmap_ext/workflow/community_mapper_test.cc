@@ -21,31 +21,24 @@ TEST(CommunityIncrementalOptions, AreTheMappersOnTheCommunitysImages) {
   EXPECT_TRUE(community_options.Check());
 }
 
-// The global adjustments of the communities and of the merge stop at
-// ba_function_tolerance; a plan of one community, or -1, runs the mapper's
-// own.
+// The communities' global adjustments stop at community_ba_function_tolerance;
+// a plan of one community, or -1, runs the mapper's own.
 TEST(CommunityIncrementalOptions,
      GlobalAdjustmentsStopAtTheCommunityTolerance) {
   CommunityMapperController::Options options;
   options.incremental_options.ba_global_function_tolerance = 1e-9;
-  options.ba_function_tolerance = 1e-5;
+  options.community_ba_function_tolerance = 1e-5;
   EXPECT_EQ(options.CommunityIncrementalOptions({"a.jpg"}, 1)
                 .ba_global_function_tolerance,
             1e-5);
   EXPECT_EQ(
-      options.MergeOptions().incremental_options.ba_global_function_tolerance,
-      1e-5);
-  EXPECT_EQ(
       options.CommunityIncrementalOptions({"a.jpg"}, 1, /*only_community=*/true)
           .ba_global_function_tolerance,
       1e-9);
-  options.ba_function_tolerance = -1;
+  options.community_ba_function_tolerance = -1;
   EXPECT_EQ(options.CommunityIncrementalOptions({"a.jpg"}, 1)
                 .ba_global_function_tolerance,
             1e-9);
-  EXPECT_EQ(
-      options.MergeOptions().incremental_options.ba_global_function_tolerance,
-      1e-9);
 }
 
 // A thread count the user sets is kept.
