@@ -3,6 +3,7 @@
 #include "colmap_ext/workflow/community_io.h"
 #include "colmap_ext/workflow/community_workspace.h"
 #include "colmap_ext/workflow/database_migration.h"
+#include "colmap_ext/workflow/sqlite_connection.h"
 
 #include "colmap/scene/database.h"
 #include "colmap/util/file.h"
@@ -12,27 +13,7 @@
 #include <filesystem>
 #include <system_error>
 
-#include <sqlite3.h>
-
 namespace colmap {
-namespace {
-
-// Runs a query returning one integer; false if it fails.
-bool QueryInteger(sqlite3* database, const std::string& sql, int64_t* value) {
-  sqlite3_stmt* statement = nullptr;
-  if (sqlite3_prepare_v2(database, sql.c_str(), -1, &statement, nullptr) !=
-      SQLITE_OK) {
-    return false;
-  }
-  const bool ok = sqlite3_step(statement) == SQLITE_ROW;
-  if (ok) {
-    *value = sqlite3_column_int64(statement, 0);
-  }
-  sqlite3_finalize(statement);
-  return ok;
-}
-
-}  // namespace
 
 bool ReadImageListIntoOptions(const std::string& path,
                               CommunityMapperController::Options* options) {
@@ -81,26 +62,21 @@ bool CheckDatabaseContents(const std::string& path, const int min_num_matches) {
                   "exhaustive_matcher`).";
     return false;
   }
-  sqlite3* database = nullptr;
-  if (sqlite3_open_v2(path.c_str(), &database, SQLITE_OPEN_READONLY, nullptr) !=
-      SQLITE_OK) {
-    LOG(ERROR) << "Cannot open the database " << path << ": "
-               << sqlite3_errmsg(database) << ".";
-    sqlite3_close(database);
+  std::string open_error;
+  const SqliteConnection database(path, SQLITE_OPEN_READONLY, &open_error);
+  if (database.get() == nullptr) {
+    LOG(ERROR) << "Cannot open the database " << path << ": " << open_error
+               << ".";
     return false;
   }
-  struct Closer {
-    sqlite3* database;
-    ~Closer() { sqlite3_close(database); }
-  } closer{database};
 
   int64_t num_tables = 0;
-  if (!QueryInteger(database,
-                    "SELECT COUNT(*) FROM sqlite_master WHERE type='table' AND "
-                    "name IN ('images', 'keypoints', 'two_view_geometries')",
-                    &num_tables)) {
+  if (!database.QueryInteger(
+          "SELECT COUNT(*) FROM sqlite_master WHERE type='table' AND "
+          "name IN ('images', 'keypoints', 'two_view_geometries')",
+          &num_tables)) {
     LOG(ERROR) << "Cannot read the database " << path << ": "
-               << sqlite3_errmsg(database)
+               << sqlite3_errmsg(database.get())
                << ". Is it a COLMAP database (e.g. from `colmap "
                   "feature_extractor`)?";
     return false;
@@ -115,16 +91,15 @@ bool CheckDatabaseContents(const std::string& path, const int min_num_matches) {
   int64_t num_images = 0;
   int64_t num_keypoints = 0;
   int64_t num_pairs = 0;
-  if (!QueryInteger(database, "SELECT COUNT(*) FROM images", &num_images) ||
-      !QueryInteger(database,
-                    "SELECT COUNT(*) FROM keypoints WHERE rows > 0",
-                    &num_keypoints) ||
-      !QueryInteger(database,
-                    "SELECT COUNT(*) FROM two_view_geometries WHERE rows >= " +
-                        std::to_string(min_num_matches),
-                    &num_pairs)) {
+  if (!database.QueryInteger("SELECT COUNT(*) FROM images", &num_images) ||
+      !database.QueryInteger("SELECT COUNT(*) FROM keypoints WHERE rows > 0",
+                             &num_keypoints) ||
+      !database.QueryInteger(
+          "SELECT COUNT(*) FROM two_view_geometries WHERE rows >= " +
+              std::to_string(min_num_matches),
+          &num_pairs)) {
     LOG(ERROR) << "Cannot read the database " << path << ": "
-               << sqlite3_errmsg(database) << ".";
+               << sqlite3_errmsg(database.get()) << ".";
     return false;
   }
   if (num_images == 0) {

@@ -10,16 +10,12 @@
 #include <sstream>
 
 namespace colmap {
-namespace {
 
-// A value as project.ini and docs/options.md write it.
-std::string ValueToText(const CommunityMapperOption& option) {
+std::string CommunityMapperOption::ValueToText() const {
   std::ostringstream text;
-  option.Visit([&text](const auto* field) { text << *field; });
+  Visit([&text](const auto* field) { text << *field; });
   return text.str();
 }
-
-}  // namespace
 
 std::vector<CommunityMapperOption> CommunityMapperOptionTable(
     CommunityMapperCommandOptions* options) {
@@ -87,11 +83,12 @@ std::vector<CommunityMapperOption> CommunityMapperOptionTable(
        "threshold only)",
        kShapesPlan,
        kAdvanced},
-      {"community_ba_function_tolerance",
-       &mapper.community_ba_function_tolerance,
-       "relative function tolerance at which the communities' global bundle "
-       "adjustments stop (-1: Mapper.ba_global_function_tolerance; a plan of "
-       "one community runs the mapper's own)",
+      {"ba_function_tolerance",
+       &mapper.ba_function_tolerance,
+       "relative function tolerance at which the global bundle adjustments "
+       "of the communities and the merged model's refinement stop (-1: "
+       "Mapper.ba_global_function_tolerance; a plan of one community runs "
+       "the mapper's own)",
        kShapesPlan,
        kAdvanced},
       {"pairwise_max_relative_error",
@@ -141,7 +138,7 @@ std::string CommunityMapperIniSection(
   for (const CommunityMapperOption& option :
        CommunityMapperOptionTable(&copy)) {
     if (option.saved) {
-      section += option.name + "=" + ValueToText(option) + "\n";
+      section += option.name + "=" + option.ValueToText() + "\n";
     }
   }
   return section;
@@ -157,39 +154,6 @@ std::vector<std::string> CommunityMapperPlanKeys() {
     }
   }
   return keys;
-}
-
-std::string CommunityMapperOptionsMarkdown() {
-  CommunityMapperCommandOptions defaults;
-  const std::vector<CommunityMapperOption> table =
-      CommunityMapperOptionTable(&defaults);
-  std::string text =
-      "# `colmap community_mapper` options\n\n"
-      "Generated from the option table "
-      "(`colmap_ext/exe/community_mapper_options.cc`); "
-      "`colmap community_mapper -h` lists the same. Every option is "
-      "`--CommunityMapper.NAME VALUE`. The command also takes COLMAP's "
-      "`--Mapper.*` options (every community's incremental mapper and the "
-      "merge's registration, triangulation and bundle adjustment; "
-      "`--Mapper.min_num_matches` is the view graph's minimum of verified "
-      "inlier matches per edge), `--image_list_path` and `--project_path`.\n"
-      "\n"
-      "Options marked *plan* shape the partition and the communities' "
-      "models: the plan records them, and a later stage or a resumed run "
-      "given another value is refused.\n";
-  for (const bool advanced : {false, true}) {
-    text += advanced ? "\n## Advanced options, by stage\n\n"
-                     : "\n## Options users set\n\n";
-    text += "| option | default | meaning |\n| --- | --- | --- |\n";
-    for (const CommunityMapperOption& option : table) {
-      if (option.advanced == advanced) {
-        text += "| `" + option.name + "` | " + ValueToText(option) +
-                " | " + (option.shapes_plan ? "*plan*: " : "") + option.help +
-                " |\n";
-      }
-    }
-  }
-  return text;
 }
 
 std::string PlanOptionsFromIni(const std::string& project_ini) {

@@ -6,9 +6,9 @@
 // value is refused), and whether it is an advanced one (prefixed by its
 // stage). The table drives the command's OptionManager registration, the
 // [CommunityMapper] section of project.ini, the plan's keys and
-// docs/options.md (CommunityMapperOptionsMarkdown). The defaults are the
-// fields' own (CommunityMapperController::Options and the stages' options
-// structs); the range checks are their Check()s.
+// docs/options.md (CommunityMapperOptionsMarkdown, testing/testing.h). The
+// defaults are the fields' own (CommunityMapperController::Options and the
+// stages' options structs); the range checks are their Check()s.
 #pragma once
 
 #include "colmap_ext/workflow/community_mapper.h"
@@ -57,6 +57,9 @@ struct CommunityMapperOption {
     if (double_value != nullptr) visitor(double_value);
     if (string_value != nullptr) visitor(string_value);
   }
+
+  // The value as project.ini and docs/options.md write it.
+  std::string ValueToText() const;
 
   // The flag without "--CommunityMapper.".
   std::string name;
@@ -110,8 +113,5 @@ std::vector<std::string> CommunityMapperPlanKeys();
 // plan made with others. The merge's own options may differ between merges
 // of the same communities.
 std::string PlanOptionsFromIni(const std::string& project_ini);
-
-// docs/options.md: every option with its default and help, users' first.
-std::string CommunityMapperOptionsMarkdown();
 
 }  // namespace colmap

@@ -1,5 +1,6 @@
 #include "colmap_ext/exe/community_mapper_options.h"
 
+#include "colmap_ext/testing/testing.h"
 #include "colmap_ext/workflow/community_workspace.h"
 
 #include <filesystem>

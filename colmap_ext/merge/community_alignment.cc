@@ -186,24 +186,21 @@ PairOutcome EstimatePairSimilarity(
                                          is_compared_pair,
                                          covisibility_options);
         if (!covisibility.consistent) {
-          RejectedSimilarity rejected_similarity;
-          rejected_similarity.similarity =
-              ToRelativeSimilarity(community1, community2, candidate);
-          rejected_similarity.check = covisibility;
-          outcome.rejected.push_back(std::move(rejected_similarity));
+          outcome.rejected.push_back(
+              {ToRelativeSimilarity(community1, community2, candidate)});
           rejected += StringPrintf(
               " [%d inliers rejected: co-visible pairs verified %d of %d "
               "across, %d of %d inside; close views %d of %d across, %d of "
               "%d inside]",
               candidate.num_inliers,
-              covisibility.num_verified_cross_pairs,
-              covisibility.num_predicted_cross_pairs,
-              covisibility.num_verified_internal_pairs,
-              covisibility.num_predicted_internal_pairs,
-              covisibility.num_verified_close_cross_pairs,
-              covisibility.num_predicted_close_cross_pairs,
-              covisibility.num_verified_close_internal_pairs,
-              covisibility.num_predicted_close_internal_pairs);
+              covisibility.cross.num_verified,
+              covisibility.cross.num_predicted,
+              covisibility.internal.num_verified,
+              covisibility.internal.num_predicted,
+              covisibility.cross.num_verified_close,
+              covisibility.cross.num_predicted_close,
+              covisibility.internal.num_verified_close,
+              covisibility.internal.num_predicted_close);
         }
         return covisibility.consistent;
       },
@@ -237,10 +234,10 @@ PairOutcome EstimatePairSimilarity(
                          similarity.num_inliers,
                          num_supporting_images,
                          similarity.second_from_first.scale(),
-                         covisibility.num_verified_cross_pairs,
-                         covisibility.num_predicted_cross_pairs,
-                         covisibility.num_verified_internal_pairs,
-                         covisibility.num_predicted_internal_pairs,
+                         covisibility.cross.num_verified,
+                         covisibility.cross.num_predicted,
+                         covisibility.internal.num_verified,
+                         covisibility.internal.num_predicted,
                          agreement.num_agreeing,
                          agreement.num_shared_images,
                          agreement.max_rotation_deg,
@@ -259,7 +256,6 @@ PairOutcome EstimatePairSimilarity(
   relative.num_supporting_images = num_supporting_images;
   relative.num_shared_images = agreement.num_shared_images;
   relative.num_agreeing_shared_images = agreement.num_agreeing;
-  relative.max_shared_image_relative_distance = agreement.max_relative_distance;
   outcome.has_similarity = true;
   return outcome;
 }

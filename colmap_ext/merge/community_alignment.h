@@ -51,8 +51,6 @@ struct RejectedSimilarity {
   RelativeSimilarity similarity;
   // The cross pairs whose matches mostly support it.
   std::vector<image_pair_t> pairs;
-  // The check that rejected it.
-  CovisibilityCheck check;
 };
 
 struct CommunitySimilarities {

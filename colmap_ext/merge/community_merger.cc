@@ -139,6 +139,7 @@ std::unordered_set<image_t> ImagesNotTaken(
 
 bool CommunityMergerOptions::Check() const {
   CHECK_OPTION_GT(min_num_matches, 0);
+  CHECK_OPTION_GE(refinement_function_tolerance, 0);
   CHECK_OPTION(pairwise_similarity.Check());
   CHECK_OPTION(covisibility_check.Check());
   CHECK_OPTION(similarity_averaging.Check());
@@ -404,7 +405,8 @@ void CommunityMerger::RefinePart(
   }
   const double initial_error = merged->ComputeMeanReprojectionError();
   THROW_CHECK(RefineMergedModel(
-      MergedModelRefinementOptions(options_.incremental_options),
+      MergedModelRefinementOptions(options_.incremental_options,
+                                   options_.refinement_function_tolerance),
       LoadPartCorrespondences(image_names, *merged),
       merged))
       << "the bundle adjustment of the merged model failed";

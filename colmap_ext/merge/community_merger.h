@@ -84,6 +84,10 @@ struct CommunityMergerOptions {
   // remaining images with its adjustments.
   IncrementalPipelineOptions incremental_options;
 
+  // Relative function tolerance at which the merged model's adjustments
+  // (stage 3) stop; the registration's follow incremental_options.
+  double refinement_function_tolerance = 1e-6;
+
   // Stage 3 off: each part's joined model, its corresponding points merged,
   // goes to the registration as the averaging placed it.
   bool skip_global_refinement = false;

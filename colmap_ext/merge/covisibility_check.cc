@@ -145,37 +145,29 @@ Covisibility PredictCovisibility(const ImageView& view1,
              : Covisibility::kWideViews;
 }
 
-// Predicted co-visible and verified pairs, and the close views among them.
-struct PairCounts {
-  int num_predicted = 0;
-  int num_verified = 0;
-  int num_predicted_close = 0;
-  int num_verified_close = 0;
-
-  // Counts the pair if the matcher compared it (every pair, without
-  // `is_compared_pair`) and it is predicted co-visible.
-  void Add(const ImageView& view1,
-           const ImageView& view2,
-           const std::function<bool(image_t, image_t)>& is_verified_pair,
-           const std::function<bool(image_t, image_t)>& is_compared_pair,
-           const CovisibilityCheckOptions& options) {
-    if (is_compared_pair && !is_compared_pair(view1.image_id, view2.image_id)) {
-      return;
-    }
-    const Covisibility covisibility =
-        PredictCovisibility(view1, view2, options);
-    if (covisibility == Covisibility::kNone) {
-      return;
-    }
-    const bool verified = is_verified_pair(view1.image_id, view2.image_id);
-    ++num_predicted;
-    num_verified += verified;
-    if (covisibility == Covisibility::kCloseViews) {
-      ++num_predicted_close;
-      num_verified_close += verified;
-    }
+// Counts the pair if the matcher compared it (every pair, without
+// `is_compared_pair`) and it is predicted co-visible.
+void CountPair(const ImageView& view1,
+               const ImageView& view2,
+               const std::function<bool(image_t, image_t)>& is_verified_pair,
+               const std::function<bool(image_t, image_t)>& is_compared_pair,
+               const CovisibilityCheckOptions& options,
+               PairCounts* counts) {
+  if (is_compared_pair && !is_compared_pair(view1.image_id, view2.image_id)) {
+    return;
   }
-};
+  const Covisibility covisibility = PredictCovisibility(view1, view2, options);
+  if (covisibility == Covisibility::kNone) {
+    return;
+  }
+  const bool verified = is_verified_pair(view1.image_id, view2.image_id);
+  ++counts->num_predicted;
+  counts->num_verified += verified;
+  if (covisibility == Covisibility::kCloseViews) {
+    ++counts->num_predicted_close;
+    counts->num_verified_close += verified;
+  }
+}
 
 // The given quantile of the centre distances of the verified pairs among
 // `views`; 0 if there are none.
@@ -221,9 +213,12 @@ void CountInternalPairs(
   // At most 2000 pairs inside each model are tested for its rate.
   const size_t step = std::max<size_t>(1, near_pairs.size() / 2000);
   for (size_t k = 0; k < near_pairs.size(); k += step) {
-    const ImageView& view1 = views[near_pairs[k].first];
-    const ImageView& view2 = views[near_pairs[k].second];
-    counts->Add(view1, view2, is_verified_pair, is_compared_pair, options);
+    CountPair(views[near_pairs[k].first],
+              views[near_pairs[k].second],
+              is_verified_pair,
+              is_compared_pair,
+              options,
+              counts);
   }
 }
 
@@ -246,18 +241,9 @@ bool CovisibilityCheckOptions::Check() const {
   return true;
 }
 
-double CovisibilityCheck::CrossRate() const {
-  return num_predicted_cross_pairs == 0
-             ? 0.0
-             : static_cast<double>(num_verified_cross_pairs) /
-                   num_predicted_cross_pairs;
-}
-
-double CovisibilityCheck::InternalRate() const {
-  return num_predicted_internal_pairs == 0
-             ? 0.0
-             : static_cast<double>(num_verified_internal_pairs) /
-                   num_predicted_internal_pairs;
+double PairCounts::Rate() const {
+  return num_predicted == 0 ? 0.0
+                            : static_cast<double>(num_verified) / num_predicted;
 }
 
 CovisibilityCheck CheckCovisibility(
@@ -284,21 +270,15 @@ CovisibilityCheck CheckCovisibility(
     return check;
   }
 
-  PairCounts internal;
   for (const std::vector<ImageView>* views : {&views1, &views2}) {
     CountInternalPairs(*views,
                        max_distance,
                        is_verified_pair,
                        is_compared_pair,
                        options,
-                       &internal);
+                       &check.internal);
   }
-  check.num_predicted_internal_pairs = internal.num_predicted;
-  check.num_verified_internal_pairs = internal.num_verified;
-  check.num_predicted_close_internal_pairs = internal.num_predicted_close;
-  check.num_verified_close_internal_pairs = internal.num_verified_close;
 
-  PairCounts cross;
   for (const ImageView& view1 : views1) {
     if (reconstruction2.ExistsImage(view1.image_id) &&
         reconstruction2.Image(view1.image_id).HasPose()) {
@@ -310,17 +290,18 @@ CovisibilityCheck CheckCovisibility(
            reconstruction1.Image(view2.image_id).HasPose())) {
         continue;
       }
-      cross.Add(view1, view2, is_verified_pair, is_compared_pair, options);
+      CountPair(view1,
+                view2,
+                is_verified_pair,
+                is_compared_pair,
+                options,
+                &check.cross);
     }
   }
-  check.num_predicted_cross_pairs = cross.num_predicted;
-  check.num_verified_cross_pairs = cross.num_verified;
-  check.num_predicted_close_cross_pairs = cross.num_predicted_close;
-  check.num_verified_close_cross_pairs = cross.num_verified_close;
 
   check.consistent =
-      check.num_predicted_cross_pairs < options.min_num_predicted_pairs ||
-      check.CrossRate() >= options.min_rate_ratio * check.InternalRate();
+      check.cross.num_predicted < options.min_num_predicted_pairs ||
+      check.cross.Rate() >= options.min_rate_ratio * check.internal.Rate();
   return check;
 }
 

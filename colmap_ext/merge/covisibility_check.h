@@ -1,37 +1,19 @@
 // Does an alignment of two reconstructions explain which images were matched?
 //
-// A similarity between two community models can be supported by many
-// inlier correspondences and still be wrong: matches between two identical
-// facades (repeated structure) agree with the transform that stacks one
-// facade on the other, as true matches agree with the true transform. What
-// gives such a merge away is what is missing (Zach, Irschara and Bischof,
-// "What can missing correspondences tell us about 3D structure and motion?",
-// CVPR 2008; Heinly et al., "Correcting for duplicate scene structure in
-// sparse 3D reconstruction", ECCV 2014): once aligned, many image pairs
-// across the two models would see the same structure, but the matcher
-// verified few of them.
-//
-// Here the question is asked per image pair. With both models in one frame,
-// a pair of images is predicted co-visible when each sees at least
-// 15 of the other's 3D points (of at most 200 per image, evenly chosen) in
-// front of it, inside its
-// image, not behind the surfaces it sees there itself (a coarse depth map
-// from its own points; where it sees nothing, nothing is predicted), under
-// rays less than `max_ray_angle_deg` apart (features are not matched
-// across larger viewpoint changes). The check compares
+// Matches between identical structures (two facades, two towers) agree with
+// the transform that stacks one on the other. What gives such a merge away
+// is what is missing (Zach, Irschara and Bischof, CVPR 2008; Heinly et al.,
+// ECCV 2014): once aligned, many image pairs across the two models would see
+// the same structure, but the matcher verified few of them. With both models
+// in one frame, a pair is predicted co-visible where each image sees at least
+// 15 of the other's points (of at most 200 per image) in front of it, inside
+// it, not behind its own surfaces (a coarse depth map) and under rays less
+// than `max_ray_angle_deg` apart. The check compares
 //   cross rate    = verified / predicted co-visible pairs across the models,
 //   internal rate = verified / predicted co-visible pairs within each model,
-// so that the matcher's own habits (exhaustive, sequential, vocabulary tree)
-// cancel out: a true alignment predicts cross pairs that the matcher verified
-// about as often as it verified the predicted pairs inside the models, a
-// false one predicts many pairs it never verified. (Where every pair of the
-// duplicates was verified, the pairs alone cannot tell; that would need the
-// matches of each pair, point by point.) Only pairs whose camera centres
-// are closer than the longest verified pairs inside the models are tested,
-// so the cost follows the images near the border, and drift far from it
-// does not matter. The close views among the pairs (rays to their common
-// points at most `close_ray_angle_deg` apart on average) are counted
-// apart, for the log only: no rule uses them.
+// so that the matcher's habits (exhaustive, sequential, retrieval) cancel.
+// Only pairs closer than the longest verified pairs inside the models are
+// tested. Close views (`close_ray_angle_deg`) are counted for the log only.
 
 #pragma once
 
@@ -81,21 +63,24 @@ struct CovisibilityCheckOptions {
   bool Check() const;
 };
 
+// Image pairs predicted co-visible and how many of them were verified, and
+// the same for the close views among them
+// (CovisibilityCheckOptions::close_ray_angle_deg), for the log.
+struct PairCounts {
+  int num_predicted = 0;
+  int num_verified = 0;
+  int num_predicted_close = 0;
+  int num_verified_close = 0;
+
+  // num_verified / num_predicted (0 without predicted pairs).
+  double Rate() const;
+};
+
 struct CovisibilityCheck {
-  int num_predicted_cross_pairs = 0;
-  int num_verified_cross_pairs = 0;
-  int num_predicted_internal_pairs = 0;
-  int num_verified_internal_pairs = 0;
-
-  // The same counts for the close views alone
-  // (CovisibilityCheckOptions::close_ray_angle_deg), for the log.
-  int num_predicted_close_cross_pairs = 0;
-  int num_verified_close_cross_pairs = 0;
-  int num_predicted_close_internal_pairs = 0;
-  int num_verified_close_internal_pairs = 0;
-
-  double CrossRate() const;
-  double InternalRate() const;
+  // The pairs across the two models (the cross rate) and inside each model
+  // (the internal rate).
+  PairCounts cross;
+  PairCounts internal;
   // Whether the alignment explains the matches (true where there are too few
   // predicted pairs to tell).
   bool consistent = true;

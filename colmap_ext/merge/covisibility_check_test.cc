@@ -112,9 +112,9 @@ TEST_F(CheckCovisibilityTest, TrueAlignmentExplainsTheMatches) {
   EXPECT_TRUE(check.consistent);
   // The walkway's halves meet: there are co-visible pairs to judge by, and
   // the matcher verified them as often as those inside the models.
-  EXPECT_GE(check.num_predicted_cross_pairs, 10);
-  EXPECT_GT(check.num_predicted_internal_pairs, 100);
-  EXPECT_GT(check.CrossRate(), 0.5 * check.InternalRate());
+  EXPECT_GE(check.cross.num_predicted, 10);
+  EXPECT_GT(check.internal.num_predicted, 100);
+  EXPECT_GT(check.cross.Rate(), 0.5 * check.internal.Rate());
 }
 
 TEST_F(CheckCovisibilityTest, StackedLandmarksContradictTheMatches) {
@@ -125,16 +125,16 @@ TEST_F(CheckCovisibilityTest, StackedLandmarksContradictTheMatches) {
   const CovisibilityCheck check =
       Check(Inverse(world_from_model2_) * stacked * world_from_model1_);
   EXPECT_FALSE(check.consistent);
-  EXPECT_GE(check.num_predicted_cross_pairs, 50);
-  EXPECT_LT(check.CrossRate(), 0.1 * check.InternalRate());
+  EXPECT_GE(check.cross.num_predicted, 50);
+  EXPECT_LT(check.cross.Rate(), 0.1 * check.internal.Rate());
   // The stack puts the landmarks' cameras side by side: close views that
   // the matcher, which matched nearly every close view inside the models,
   // hardly ever matched.
-  EXPECT_GE(check.num_predicted_close_cross_pairs, 10);
-  EXPECT_LT(check.num_verified_close_cross_pairs,
-            0.1 * check.num_predicted_close_cross_pairs);
-  EXPECT_GT(check.num_verified_close_internal_pairs,
-            0.9 * check.num_predicted_close_internal_pairs);
+  EXPECT_GE(check.cross.num_predicted_close, 10);
+  EXPECT_LT(check.cross.num_verified_close,
+            0.1 * check.cross.num_predicted_close);
+  EXPECT_GT(check.internal.num_verified_close,
+            0.9 * check.internal.num_predicted_close);
 }
 
 TEST_F(CheckCovisibilityTest, PairsNeverComparedSayNothing) {
@@ -150,12 +150,12 @@ TEST_F(CheckCovisibilityTest, PairsNeverComparedSayNothing) {
   const CovisibilityCheck check = Check(
       Inverse(world_from_model2_) * stacked * world_from_model1_, compared);
   EXPECT_TRUE(check.consistent);
-  EXPECT_EQ(check.num_predicted_cross_pairs, check.num_verified_cross_pairs);
+  EXPECT_EQ(check.cross.num_predicted, check.cross.num_verified);
   // The true alignment: as with every pair compared.
   const CovisibilityCheck truth =
       Check(Inverse(world_from_model2_) * world_from_model1_, compared);
   EXPECT_TRUE(truth.consistent);
-  EXPECT_GT(truth.num_predicted_internal_pairs, 100);
+  EXPECT_GT(truth.internal.num_predicted, 100);
   // Every pair compared across, the stacked alignment is still refused.
   const auto all_but_one = [](image_t a, image_t b) { return a != b; };
   EXPECT_FALSE(Check(Inverse(world_from_model2_) * stacked * world_from_model1_,
@@ -169,7 +169,7 @@ TEST_F(CheckCovisibilityTest, ModelsFarApartSayNothing) {
   const CovisibilityCheck check =
       Check(Inverse(world_from_model2_) * far_apart * world_from_model1_);
   EXPECT_TRUE(check.consistent);
-  EXPECT_EQ(check.num_predicted_cross_pairs, 0);
+  EXPECT_EQ(check.cross.num_predicted, 0);
 }
 
 // A wall seen by two groups of cameras whose rays to it are 46-58 degrees
@@ -237,16 +237,16 @@ TEST(CheckCovisibility, PairsSeenUnderWideAnglesSayNothing) {
   const CovisibilityCheck check = CheckCovisibility(
       left, right, Sim3d(), is_verified, /*is_compared_pair=*/{}, options);
   EXPECT_TRUE(check.consistent);
-  EXPECT_LT(check.num_predicted_cross_pairs, options.min_num_predicted_pairs);
-  EXPECT_GT(check.num_predicted_internal_pairs, 0);
+  EXPECT_LT(check.cross.num_predicted, options.min_num_predicted_pairs);
+  EXPECT_GT(check.internal.num_predicted, 0);
   // Counting points under rays up to 60 degrees apart, the pairs across are
   // predicted co-visible, none was matched, and the right alignment is
   // refused.
   options.max_ray_angle_deg = 60;
   const CovisibilityCheck wide = CheckCovisibility(
       left, right, Sim3d(), is_verified, /*is_compared_pair=*/{}, options);
-  EXPECT_GE(wide.num_predicted_cross_pairs, options.min_num_predicted_pairs);
-  EXPECT_EQ(wide.num_verified_cross_pairs, 0);
+  EXPECT_GE(wide.cross.num_predicted, options.min_num_predicted_pairs);
+  EXPECT_EQ(wide.cross.num_verified, 0);
   EXPECT_FALSE(wide.consistent);
 }
 
@@ -270,15 +270,15 @@ TEST(CheckCovisibility, CloseViewsAreCountedApart) {
   };
   const CovisibilityCheck close = check_walls(6);
   EXPECT_FALSE(close.consistent);
-  EXPECT_GE(close.num_predicted_cross_pairs, options.min_num_predicted_pairs);
-  EXPECT_EQ(close.num_predicted_close_cross_pairs, 5);
-  EXPECT_EQ(close.num_verified_close_cross_pairs, 0);
-  EXPECT_EQ(close.num_predicted_close_internal_pairs, 0);
+  EXPECT_GE(close.cross.num_predicted, options.min_num_predicted_pairs);
+  EXPECT_EQ(close.cross.num_predicted_close, 5);
+  EXPECT_EQ(close.cross.num_verified_close, 0);
+  EXPECT_EQ(close.internal.num_predicted_close, 0);
 
   const CovisibilityCheck wide = check_walls(15);
   EXPECT_FALSE(wide.consistent);
-  EXPECT_GE(wide.num_predicted_cross_pairs, options.min_num_predicted_pairs);
-  EXPECT_EQ(wide.num_predicted_close_cross_pairs, 0);
+  EXPECT_GE(wide.cross.num_predicted, options.min_num_predicted_pairs);
+  EXPECT_EQ(wide.cross.num_predicted_close, 0);
 }
 
 TEST(CovisibilityCheckOptions, Check) {

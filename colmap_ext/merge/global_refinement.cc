@@ -7,7 +7,8 @@
 namespace colmap {
 
 GlobalMapperOptions MergedModelRefinementOptions(
-    const IncrementalPipelineOptions& mapper_options) {
+    const IncrementalPipelineOptions& mapper_options,
+    const double function_tolerance) {
   GlobalMapperOptions options;
   options.num_threads = mapper_options.num_threads;
   options.random_seed = mapper_options.random_seed;
@@ -19,8 +20,9 @@ GlobalMapperOptions MergedModelRefinementOptions(
   ba.refine_principal_point = mapper_options.ba_refine_principal_point;
   ba.refine_extra_params = mapper_options.ba_refine_extra_params;
   if (ba.ceres) {
-    // As the incremental mapper's adjustments: on the CPU (the global
+    // On the CPU, as the incremental mapper's adjustments (the global
     // mapper's default asks for the GPU).
+    ba.ceres->solver_options.function_tolerance = function_tolerance;
     ba.ceres->use_gpu = mapper_options.ba_use_gpu;
     ba.ceres->gpu_index = mapper_options.ba_gpu_index;
   }

@@ -28,9 +28,11 @@ namespace colmap {
 
 // The robust adjustment and the retriangulation are COLMAP's GlobalMapper's
 // (IterativeBundleAdjustment, IterativeRetriangulateAndRefine) with its
-// defaults; the intrinsics and rigs they refine follow --Mapper.ba_refine_*.
+// defaults; the intrinsics and rigs they refine follow --Mapper.ba_refine_*,
+// and their adjustments stop at `function_tolerance`.
 GlobalMapperOptions MergedModelRefinementOptions(
-    const IncrementalPipelineOptions& mapper_options);
+    const IncrementalPipelineOptions& mapper_options,
+    double function_tolerance);
 
 // Refines `reconstruction` (its registered images, on `database_cache`'s
 // correspondences): robust adjustment on the joined points, then every point

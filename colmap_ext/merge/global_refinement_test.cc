@@ -39,6 +39,19 @@ struct RefinementScene {
   IncrementalPipelineOptions mapper_options;
 };
 
+// The merged model's adjustments stop at the tolerance given, and refine
+// the intrinsics the user refines.
+TEST(MergedModelRefinementOptions, FollowTheMappersGlobalAdjustment) {
+  IncrementalPipelineOptions mapper_options;
+  mapper_options.ba_refine_focal_length = false;
+  const GlobalMapperOptions options =
+      MergedModelRefinementOptions(mapper_options, /*function_tolerance=*/1e-7);
+  ASSERT_TRUE(options.bundle_adjustment.ceres);
+  EXPECT_EQ(options.bundle_adjustment.ceres->solver_options.function_tolerance,
+            1e-7);
+  EXPECT_FALSE(options.bundle_adjustment.refine_focal_length);
+}
+
 // The joined communities of a merge are each right but placed only as well
 // as the averaging could: the robust adjustment and the retriangulation
 // over the whole correspondence graph bring them most of the way to where
@@ -46,7 +59,8 @@ struct RefinementScene {
 TEST(RefineMergedModel, BringsAPerturbedModelToTheTruth) {
   RefinementScene scene;
   const GlobalMapperOptions options =
-      MergedModelRefinementOptions(scene.mapper_options);
+      MergedModelRefinementOptions(scene.mapper_options,
+                                   /*function_tolerance=*/1e-6);
 
   auto refined_truth =
       std::make_shared<Reconstruction>(scene.scene.ground_truth);

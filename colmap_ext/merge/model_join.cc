@@ -181,6 +181,15 @@ void JoinFrames(const std::vector<Reconstruction*>& reconstructions,
   }
 }
 
+// Deletes the points with fewer than two observations.
+void DeletePointsWithShortTracks(Reconstruction* reconstruction) {
+  for (const point3D_t point3D_id : reconstruction->Point3DIds()) {
+    if (reconstruction->Point3D(point3D_id).track.Length() < 2) {
+      reconstruction->DeletePoint3D(point3D_id);
+    }
+  }
+}
+
 }  // namespace
 
 void JoinReconstructions(
@@ -259,11 +268,7 @@ size_t MergeCorrespondingPoints(
     reconstruction->MergePoints3D(pair.first, pair.second);
     ++num_merged;
   }
-  for (const point3D_t point3D_id : reconstruction->Point3DIds()) {
-    if (reconstruction->Point3D(point3D_id).track.Length() < 2) {
-      reconstruction->DeletePoint3D(point3D_id);
-    }
-  }
+  DeletePointsWithShortTracks(reconstruction);
   return num_merged;
 }
 
@@ -285,11 +290,7 @@ std::shared_ptr<Reconstruction> RestrictToImages(
                       {image_ids},
                       restricted.get(),
                       &point3D_ids);
-  for (const point3D_t point3D_id : restricted->Point3DIds()) {
-    if (restricted->Point3D(point3D_id).track.Length() < 2) {
-      restricted->DeletePoint3D(point3D_id);
-    }
-  }
+  DeletePointsWithShortTracks(restricted.get());
   return restricted;
 }
 

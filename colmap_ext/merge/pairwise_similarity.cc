@@ -9,10 +9,9 @@
 #include <set>
 
 namespace colmap {
-double MedianDistanceToMedian(const std::vector<Eigen::Vector3d>& points) {
-  if (points.empty()) {
-    return 0.0;
-  }
+
+Eigen::Vector3d CoordinateWiseMedian(
+    const std::vector<Eigen::Vector3d>& points) {
   Eigen::Vector3d median;
   std::vector<double> values(points.size());
   for (int d = 0; d < 3; ++d) {
@@ -23,6 +22,15 @@ double MedianDistanceToMedian(const std::vector<Eigen::Vector3d>& points) {
         values.begin(), values.begin() + values.size() / 2, values.end());
     median(d) = values[values.size() / 2];
   }
+  return median;
+}
+
+double MedianDistanceToMedian(const std::vector<Eigen::Vector3d>& points) {
+  if (points.empty()) {
+    return 0.0;
+  }
+  const Eigen::Vector3d median = CoordinateWiseMedian(points);
+  std::vector<double> values(points.size());
   for (size_t i = 0; i < points.size(); ++i) {
     values[i] = (points[i] - median).norm();
   }

@@ -32,6 +32,11 @@
 
 namespace colmap {
 
+// Per coordinate, the median of the points (at least one): of an even number
+// the larger middle value, not their mean as colmap::Median.
+Eigen::Vector3d CoordinateWiseMedian(
+    const std::vector<Eigen::Vector3d>& points);
+
 // Median distance of the points to their coordinate-wise median: a spread
 // that a minority of outliers does not inflate (0 for no points).
 double MedianDistanceToMedian(const std::vector<Eigen::Vector3d>& points);
@@ -166,9 +171,6 @@ struct RelativeSimilarity {
   // maps onto their other copy (pairwise_similarity.h, CheckSharedImages).
   int num_shared_images = 0;
   int num_agreeing_shared_images = 0;
-  // The largest distance (in spreads of the correspondences) between the
-  // two copies of a shared image under the similarity.
-  double max_shared_image_relative_distance = 0.0;
 };
 
 }  // namespace colmap

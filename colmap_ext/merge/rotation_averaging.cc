@@ -257,13 +257,4 @@ bool AverageRotations(int num_nodes,
   return true;
 }
 
-double RelativeRotationResidualDeg(
-    const RelativeRotation& relative_rotation,
-    const std::vector<Eigen::Quaterniond>& rotations) {
-  const Eigen::Quaterniond predicted =
-      rotations[relative_rotation.node2] *
-      rotations[relative_rotation.node1].inverse();
-  return RadToDeg(predicted.angularDistance(relative_rotation.rotation));
-}
-
 }  // namespace colmap

@@ -61,9 +61,4 @@ bool AverageRotations(int num_nodes,
                       const RotationAveragingOptions& options,
                       std::vector<Eigen::Quaterniond>* rotations);
 
-// Angle (degrees) between R_ij and R_j R_i^T.
-double RelativeRotationResidualDeg(
-    const RelativeRotation& relative_rotation,
-    const std::vector<Eigen::Quaterniond>& rotations);
-
 }  // namespace colmap

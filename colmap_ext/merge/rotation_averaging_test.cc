@@ -18,6 +18,16 @@ Eigen::Quaterniond RandomRotation(std::mt19937* rng, double max_angle_deg) {
       Eigen::AngleAxisd(DegToRad(max_angle_deg) * uniform(*rng), axis));
 }
 
+// Angle (degrees) between R_ij and R_j R_i^T.
+double RelativeRotationResidualDeg(
+    const RelativeRotation& relative_rotation,
+    const std::vector<Eigen::Quaterniond>& rotations) {
+  const Eigen::Quaterniond predicted =
+      rotations[relative_rotation.node2] *
+      rotations[relative_rotation.node1].inverse();
+  return RadToDeg(predicted.angularDistance(relative_rotation.rotation));
+}
+
 struct Problem {
   std::vector<Eigen::Quaterniond> truth;
   std::vector<RelativeRotation> edges;

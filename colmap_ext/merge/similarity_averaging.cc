@@ -87,25 +87,15 @@ bool SolveDifferenceSystem(const std::vector<int>& nodes,
 Eigen::Vector3d TranslationMeasurement(const RelativeSimilarity& edge,
                                        const Sim3d& world_from_first,
                                        const Sim3d& world_from_second) {
-  std::vector<double> differences[3];
+  std::vector<Eigen::Vector3d> differences;
   for (size_t k = 0; k < edge.points1.size(); ++k) {
-    const Eigen::Vector3d difference =
+    differences.push_back(
         world_from_second.scale() *
             (world_from_second.rotation() * edge.points2[k]) -
         world_from_first.scale() *
-            (world_from_first.rotation() * edge.points1[k]);
-    for (int d = 0; d < 3; ++d) {
-      differences[d].push_back(difference(d));
-    }
+            (world_from_first.rotation() * edge.points1[k]));
   }
-  Eigen::Vector3d measurement;
-  for (int d = 0; d < 3; ++d) {
-    std::nth_element(differences[d].begin(),
-                     differences[d].begin() + differences[d].size() / 2,
-                     differences[d].end());
-    measurement(d) = differences[d][differences[d].size() / 2];
-  }
-  return measurement;
+  return CoordinateWiseMedian(differences);
 }
 
 // Averages the similarities of one connected part in place.

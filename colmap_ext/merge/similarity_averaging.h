@@ -1,57 +1,23 @@
 // Global similarity averaging of community reconstructions.
 //
-// CSfM (Cui et al., ICIP 2017), section 3. Community i's reconstruction is
-// mapped into the global frame by world_from_community_i:
-//     X_world = s_i R_i X_i + T_i.
-// An edge (i, j) carries the pairwise similarity X_j = s_ij R_ij X_i + t_ij
-// (pairwise_similarity.h) and its inlier correspondences (X_i, X_j). The
-// unknowns are found by three convex problems, each with the reference
-// community (the largest) fixed:
-//   1. scale (3.1):        min sum_ij |log s_i - log s_j - log s_ij|,
-//      solved by COLMAP's ADMM least absolute deviations solver;
-//   2. rotation (3.2):     R_i = R_j R_ij, by L1RA and IRLS
-//      (rotation_averaging.h, on R_i^T);
-//   3. translation (3.3):  with scales and rotations applied, each edge's
-//      translation is re-estimated from its correspondences,
-//      T_ij = median(s_j R_j X_j - s_i R_i X_i), then
-//      min sum_ij |T_i - T_j - T_ij|_1  (per coordinate).
-// Every edge counts with a confidence: the images that observe its inlier
-// points, in the community where they are fewer (at most the weaker
-// community's registered images; a similarity is only as strong as the
-// images it rests on), scaled down if the edge has few inliers, mapped to
-// [0.6, 1] so that a majority of right edges around a community still
-// outweighs a minority of wrong ones. On a cycle that does not close, weighted
-// L1 averaging puts the whole disagreement on the least confident edge instead
-// of spreading it over all (every spread has the same unweighted L1 cost), so
-// the fault is found where it most likely is: in a small community, or a
-// similarity resting on few images or few inliers. A community is judged by its
-// edges alone, never by its own model's statistics: a community bent by drift
-// fits its own observations as well as any.
-//
-// The images both communities registered (shared images) measure an edge's
-// similarity directly: where at least two of them, and no fewer than are
-// placed alike, are placed elsewhere by the two models under it, the
-// similarity or one of its models is wrong where the two overlap, and the
-// edge is left out before the averaging (with many inliers from misplaced
-// images it could win over the right links of its cycle).
-//
-// Afterwards, an edge is judged by where the averaging puts its own inlier
-// points: the two communities' copies of each point, both placed in the
-// world frame, must lie within a fifth of their spread of each other (the
-// median over the points). One bound on the points serves rotation, scale
-// and translation at once, in the unit in which a similarity fitted to few
-// or clustered points is still right where its points are. In each part, the
-// edge furthest beyond the bound leaves and the part is averaged again
-// (wrong edges pull the solution, so that right ones next to them can look
-// wrong until they are out), until every edge on a cycle is within it. An
-// edge on no cycle of kept edges (a bridge) is fitted as it is, right or
-// wrong, so the bound cannot judge it, and the images both communities
-// registered do: it is kept if at least two of them are placed alike (full
-// support, many inliers, stands in for them). If the kept edges no longer
-// connect all communities, every connected part gets its own frame, since a
-// wrong merge is worse than two models. A link the averaging dropped can still
-// be confirmed against the result (link_confirmation.h), and the global
-// refinement over all images judges what the averaging kept.
+// CSfM (Cui et al., ICIP 2017), section 3. Community i is placed by
+// world_from_community_i, X_world = s_i R_i X_i + T_i; an edge (i, j) carries
+// the pairwise similarity X_j = s_ij R_ij X_i + t_ij (pairwise_similarity.h)
+// and its inlier points. Three convex problems, the largest community of each
+// part fixed, each weighted by the edge's confidence c_ij:
+//   1. scale:        min sum_ij c_ij |log s_i - log s_j - log s_ij|
+//                    (COLMAP's ADMM least absolute deviations solver);
+//   2. rotation:     R_i = R_j R_ij by L1RA and IRLS (rotation_averaging.h);
+//   3. translation:  min sum_ij c_ij |T_i - T_j - T_ij|_1 per coordinate,
+//                    T_ij = median(s_j R_j X_j - s_i R_i X_i) over the edge's
+//                    inlier points.
+// Weighted L1 puts a cycle's disagreement on its least confident edge. An edge
+// is judged by where the result puts its own inlier points (the median
+// displacement of their two copies relative to their spread): the worst edge
+// of each part beyond the bound leaves and the part is averaged again. Edges
+// the images both communities registered contradict leave first, and a bridge
+// (on no cycle) is kept only if those images confirm it. docs/design.md
+// gives each rule's reason.
 
 #pragma once
 

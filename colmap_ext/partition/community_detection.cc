@@ -23,36 +23,20 @@ constexpr int kMaxRecursionDepth = 32;
         << "igraph: " << #expr << ": " << igraph_strerror(igraph_status); \
   } while (false)
 
-// Owners of igraph's C objects, so that every path out frees them.
-struct IgraphGraph {
-  igraph_t graph;
-  explicit IgraphGraph(const igraph_vector_int_t& edges, int num_vertices) {
-    IGRAPH_CALL(igraph_create(&graph, &edges, num_vertices, IGRAPH_UNDIRECTED));
+// Owner of an igraph C object, so that every path out frees it: made by
+// `init(&object, args...)` (igraph_create, igraph_*_init).
+template <typename T, auto Destroy>
+struct IgraphObject {
+  template <typename Init, typename... Args>
+  explicit IgraphObject(const Init init, const Args... args) {
+    IGRAPH_CALL(init(&object, args...));
   }
-  ~IgraphGraph() { igraph_destroy(&graph); }
+  ~IgraphObject() { Destroy(&object); }
+  T object;
 };
-
-struct IgraphIntVector {
-  igraph_vector_int_t vector;
-  explicit IgraphIntVector(igraph_integer_t size) {
-    IGRAPH_CALL(igraph_vector_int_init(&vector, size));
-  }
-  ~IgraphIntVector() { igraph_vector_int_destroy(&vector); }
-};
-
-struct IgraphRealVector {
-  igraph_vector_t vector;
-  explicit IgraphRealVector(igraph_integer_t size) {
-    IGRAPH_CALL(igraph_vector_init(&vector, size));
-  }
-  ~IgraphRealVector() { igraph_vector_destroy(&vector); }
-};
-
-struct IgraphIntMatrix {
-  igraph_matrix_int_t matrix;
-  IgraphIntMatrix() { IGRAPH_CALL(igraph_matrix_int_init(&matrix, 0, 0)); }
-  ~IgraphIntMatrix() { igraph_matrix_int_destroy(&matrix); }
-};
+using IgraphIntVector =
+    IgraphObject<igraph_vector_int_t, igraph_vector_int_destroy>;
+using IgraphRealVector = IgraphObject<igraph_vector_t, igraph_vector_destroy>;
 
 // igraph aborts the process on errors by default; report them as error codes
 // instead, which IGRAPH_CALL turns into exceptions.
@@ -219,32 +203,34 @@ GraphPartitioner::Result GreedyModularityPartitioner::Partition(
   THROW_CHECK_GE(graph.num_vertices, 2);
   THROW_CHECK(!edges.empty());
 
-  IgraphIntVector igraph_edges(2 * static_cast<igraph_integer_t>(edges.size()));
-  IgraphRealVector weights(static_cast<igraph_integer_t>(edges.size()));
+  const auto num_edges = static_cast<igraph_integer_t>(edges.size());
+  IgraphIntVector igraph_edges(igraph_vector_int_init, 2 * num_edges);
+  IgraphRealVector weights(igraph_vector_init, num_edges);
   for (size_t i = 0; i < edges.size(); ++i) {
-    VECTOR(igraph_edges.vector)[2 * i] = edges[i].vertex1;
-    VECTOR(igraph_edges.vector)[2 * i + 1] = edges[i].vertex2;
-    VECTOR(weights.vector)[i] = edges[i].weight;
+    VECTOR(igraph_edges.object)[2 * i] = edges[i].vertex1;
+    VECTOR(igraph_edges.object)[2 * i + 1] = edges[i].vertex2;
+    VECTOR(weights.object)[i] = edges[i].weight;
   }
-  IgraphGraph igraph_graph(igraph_edges.vector, graph.num_vertices);
+  IgraphObject<igraph_t, igraph_destroy> igraph_graph(igraph_create,
+                                                      &igraph_edges.object,
+                                                      graph.num_vertices,
+                                                      IGRAPH_UNDIRECTED);
 
-  IgraphIntMatrix merges;
-  IgraphRealVector modularity(0);
-  IgraphIntVector membership(0);
-  IGRAPH_CALL(igraph_community_fastgreedy(&igraph_graph.graph,
-                                          &weights.vector,
-                                          &merges.matrix,
-                                          &modularity.vector,
-                                          &membership.vector));
+  IgraphObject<igraph_matrix_int_t, igraph_matrix_int_destroy> merges(
+      igraph_matrix_int_init, 0, 0);
+  IgraphRealVector modularity(igraph_vector_init, 0);
+  IgraphIntVector membership(igraph_vector_int_init, 0);
+  IGRAPH_CALL(igraph_community_fastgreedy(&igraph_graph.object,
+                                          &weights.object,
+                                          &merges.object,
+                                          &modularity.object,
+                                          &membership.object));
 
   Result result;
-  result.modularity = igraph_vector_max(&modularity.vector);
-  result.membership.resize(graph.num_vertices);
-  for (int vertex = 0; vertex < graph.num_vertices; ++vertex) {
-    result.membership[vertex] =
-        static_cast<int>(VECTOR(membership.vector)[vertex]);
-  }
-  result.membership = RelabelBySize(result.membership);
+  result.modularity = igraph_vector_max(&modularity.object);
+  const igraph_integer_t* labels = VECTOR(membership.object);
+  result.membership = RelabelBySize(
+      std::vector<int>(labels, labels + graph.num_vertices));
   result.num_communities =
       1 + *std::max_element(result.membership.begin(), result.membership.end());
   return result;
@@ -341,8 +327,6 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
       record.modularity = result.modularity;
       record.num_parts = result.num_communities;
       // A split by the threshold whose parts are communities.
-      std::vector<int> membership = result.membership;
-      int num_parts = result.num_communities;
       if (result.num_communities > 1 &&
           result.modularity > options.modularity_threshold) {
         record.max_part_conductance = MaxPartConductance(
@@ -381,9 +365,9 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
 
       if (record.accepted) {
         split = true;
-        std::vector<std::vector<int>> parts(num_parts);
+        std::vector<std::vector<int>> parts(result.num_communities);
         for (int i = 0; i < subgraph.num_vertices; ++i) {
-          parts[membership[i]].push_back(current.vertices[i]);
+          parts[result.membership[i]].push_back(current.vertices[i]);
         }
         // A partitioner may return a community that is not connected; each
         // of its connected pieces is a community of its own.
@@ -486,35 +470,6 @@ std::vector<std::vector<int>> ExtendCommunities(
     }
   }
   return extended;
-}
-
-double ComputeModularity(const WeightedGraph& graph,
-                         const std::vector<int>& membership) {
-  THROW_CHECK_EQ(membership.size(), static_cast<size_t>(graph.num_vertices));
-  std::vector<double> degree(graph.num_vertices, 0.0);
-  double total_weight = 0.0;  // m
-  double intra_weight = 0.0;  // sum of weights of edges inside communities
-  for (const auto& edge : graph.edges) {
-    degree[edge.vertex1] += edge.weight;
-    degree[edge.vertex2] += edge.weight;
-    total_weight += edge.weight;
-    if (membership[edge.vertex1] == membership[edge.vertex2]) {
-      intra_weight += edge.weight;
-    }
-  }
-  if (total_weight <= 0.0) {
-    return 0.0;
-  }
-  std::map<int, double> community_degree;
-  for (int vertex = 0; vertex < graph.num_vertices; ++vertex) {
-    community_degree[membership[vertex]] += degree[vertex];
-  }
-  double expected = 0.0;
-  for (const auto& label_and_degree : community_degree) {
-    expected += label_and_degree.second * label_and_degree.second;
-  }
-  return intra_weight / total_weight -
-         expected / (4.0 * total_weight * total_weight);
 }
 
 }  // namespace colmap

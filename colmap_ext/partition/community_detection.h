@@ -1,36 +1,19 @@
 // Community detection on the view graph.
 //
-// CSfM (Cui et al., "CSfM: Community-based Structure from Motion", ICIP 2017),
-// section 2. With A_ij the (weighted) adjacency matrix, d_i = sum_j A_ij and
-// 2m = sum_ij A_ij, the modularity of a partition into communities U is
-//
-//     Q = 1/(2m) sum_ij (A_ij - d_i d_j / (2m)) delta(U_i, U_j).
-//
-// Greedy modularity maximisation (Clauset, Newman and Moore, "Finding
-// community structure in very large networks", Phys. Rev. E 70, 2004) merges
-// singleton communities in the order of the largest increase of Q; the cut of
-// its dendrogram at the peak Q_max is the partition. CSfM:
-//   1. splits a graph only where Q_max exceeds a threshold (0.3): below it
-//      the graph has no significant community structure;
-//   2. recurses into every community until none splits;
-//   3. merges every community with fewer than N images (20) into the
-//      connected community with the most view-graph edges to it.
-// Two rules are added. A split by the threshold is made only where its parts
-// are communities: none may have a conductance (the share of its edges'
-// weight that leads to the other parts) above max_part_conductance, but a
-// small such part (a connecting piece) joins a sibling instead.
-// Modularity measures against a random graph, which a chain of overlapping
-// views beats without community structure (Guimera, Sales-Pardo and Amaral,
-// "Modularity from fluctuations in random graphs and complex networks",
-// Phys. Rev. E 70, 2004). And for the parallel reconstruction, a (sub)graph
-// holding more than half of its connected component is split at its peak
-// even where the first two rules refuse (max_community_fraction), once: the
-// parts of such a split split further only by the others.
-// Each connected component is handled on its own.
-//
-// The recursion and the merge are independent of how one level is split: a
-// `GraphPartitioner` does that, and another algorithm (Leiden, say) can take
-// the place of greedy modularity.
+// CSfM (Cui et al., ICIP 2017), section 2: greedy modularity maximisation
+// (Clauset, Newman and Moore, Phys. Rev. E 70, 2004) cuts the graph at its
+// peak modularity Q_max, where
+//     Q = 1/(2m) sum_ij (A_ij - d_i d_j / (2m)) delta(U_i, U_j),
+// only where Q_max exceeds a threshold (0.3), recursively; communities under
+// N images (20) join the neighbour with the most edges to them. Two rules are
+// added: a split is made only where its parts are communities (conductance at
+// most max_part_conductance: a chain of overlapping views beats modularity's
+// random graph without community structure), and a (sub)graph holding more
+// than max_community_fraction of its component is split at its peak once all
+// the same, so that no community sets the pace of the run alone. Each
+// connected component is handled on its own; a `GraphPartitioner` splits one
+// level, so that another algorithm (Leiden, say) can take greedy modularity's
+// place.
 
 #pragma once
 
@@ -161,10 +144,5 @@ std::vector<std::vector<int>> ExtendCommunities(
     const WeightedGraph& graph,
     const CommunityPartition& partition,
     int num_overlap_images);
-
-// Modularity Q of the given membership on the given graph (edge weights are
-// used), as defined at the top of this file.
-double ComputeModularity(const WeightedGraph& graph,
-                         const std::vector<int>& membership);
 
 }  // namespace colmap

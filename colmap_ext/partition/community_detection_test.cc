@@ -14,6 +14,37 @@
 namespace colmap {
 namespace {
 
+// Modularity Q of the given membership on the given graph (edge weights are
+// used), as defined at the top of community_detection.h.
+double ComputeModularity(const WeightedGraph& graph,
+                         const std::vector<int>& membership) {
+  THROW_CHECK_EQ(membership.size(), static_cast<size_t>(graph.num_vertices));
+  std::vector<double> degree(graph.num_vertices, 0.0);
+  double total_weight = 0.0;  // m
+  double intra_weight = 0.0;  // sum of weights of edges inside communities
+  for (const auto& edge : graph.edges) {
+    degree[edge.vertex1] += edge.weight;
+    degree[edge.vertex2] += edge.weight;
+    total_weight += edge.weight;
+    if (membership[edge.vertex1] == membership[edge.vertex2]) {
+      intra_weight += edge.weight;
+    }
+  }
+  if (total_weight <= 0.0) {
+    return 0.0;
+  }
+  std::map<int, double> community_degree;
+  for (int vertex = 0; vertex < graph.num_vertices; ++vertex) {
+    community_degree[membership[vertex]] += degree[vertex];
+  }
+  double expected = 0.0;
+  for (const auto& label_and_degree : community_degree) {
+    expected += label_and_degree.second * label_and_degree.second;
+  }
+  return intra_weight / total_weight -
+         expected / (4.0 * total_weight * total_weight);
+}
+
 // Adds a clique on vertices [first, first + size).
 void AddClique(const int first,
                const int size,

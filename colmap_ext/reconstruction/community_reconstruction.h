@@ -1,33 +1,18 @@
 // One community reconstructed by COLMAP's incremental mapper.
 //
-// CSfM (Cui et al., ICIP 2017), section 2.2: each community is reconstructed
-// on its own by incremental SfM. This is COLMAP's IncrementalPipeline on the
-// community's images (its own and those it borrows from its neighbours),
-// with three differences that let several communities, in threads or in
-// processes, share one database:
-//   - the community's images are loaded with CreateFilteredDatabaseCache
-//     (filtered_database_cache.h), which reads the two-view geometries of
-//     the community's image pairs only, not the whole database's;
-//   - the database is loaded under `database_mutex` (shared by the threads
-//     of one process: COLMAP's Database sets no SQLite busy timeout, so two
-//     connections opening it together fail with "database is locked" unless
-//     the process waits on locks, database_retry.h), and a load that found
-//     nothing is retried a few times (for other processes, e.g. the jobs of
-//     a cluster's job array);
-//   - the random number generator of the reconstructing thread is seeded
-//     anew, so that a community gives the same model whichever worker,
-//     thread or process reconstructs it (with one thread per community).
-// The pipeline starts new models until at most one image is left
-// unregistered. A community's images that its first model leaves out are
-// mostly those whose matches lie in other communities: where fewer are left
-// than a model needs to be kept (Mapper.min_model_size), every model started
-// from them is discarded, after failed initializations and registrations in
-// each of the pipeline's relaxation rounds (long work for nothing), so the
-// pipeline stops there (RoomForAnotherModel).
-// Where the mapper makes several models, the largest is the community's and
-// the others are kept beside it, largest first: the merge lets those that
-// hold enough of the community's images take part as communities of their
-// own (community_mapper.h), instead of registering their images anew.
+// CSfM (Cui et al., ICIP 2017), section 2.2: COLMAP's IncrementalPipeline on
+// the community's own and borrowed images, so that several communities, in
+// threads or processes, share one database:
+//   - only the community's pairs are loaded (filtered_database_cache.h),
+//     under `database_mutex` and retried where a load found nothing (the jobs
+//     of a cluster's array start together; database_retry.h);
+//   - the reconstructing thread's random number generator is seeded anew:
+//     the same model whichever worker, thread or process runs it;
+//   - no further model is started from fewer leftover images than
+//     Mapper.min_model_size (RoomForAnotherModel): it would be discarded after
+//     minutes of failed initializations.
+// The largest model is the community's; the others are kept beside it,
+// largest first, for the merge (community_merger.h).
 
 #pragma once
 

@@ -1,10 +1,15 @@
 #include "colmap_ext/testing/testing.h"
 
+#include "colmap_ext/exe/community_mapper_options.h"
+
+#include "colmap/util/file.h"
 #include "colmap/util/logging.h"
+#include "colmap/util/string.h"
 
 #include <array>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -53,6 +58,26 @@ std::string ShellQuote(const std::string& text) {
     }
   }
   return quoted + "'";
+}
+
+std::unordered_map<std::string, int> ReadCommunities(const std::string& path) {
+  std::ifstream file(path);
+  THROW_CHECK_FILE_OPEN(file, path);
+  std::unordered_map<std::string, int> communities;
+  std::string line;
+  while (std::getline(file, line)) {
+    StringTrim(&line);
+    if (line.empty() || line[0] == '#') {
+      continue;
+    }
+    const size_t space = line.find_last_of(' ');
+    THROW_CHECK_NE(space, std::string::npos) << "Malformed line: " << line;
+    const std::string name = line.substr(0, space);
+    const int community = std::stoi(line.substr(space + 1));
+    THROW_CHECK(communities.emplace(name, community).second)
+        << "Image listed twice: " << name;
+  }
+  return communities;
 }
 
 void SynthesizeTwoLandmarks(const bool single_camera,
@@ -120,6 +145,39 @@ void MoveImagesWithTheirPoints(const std::set<image_t>& image_ids,
       model->AddPoint3D(point3D.xyz, stays);
     }
   }
+}
+
+std::string CommunityMapperOptionsMarkdown() {
+  CommunityMapperCommandOptions defaults;
+  const std::vector<CommunityMapperOption> table =
+      CommunityMapperOptionTable(&defaults);
+  std::string text =
+      "# `colmap community_mapper` options\n\n"
+      "Generated from the option table "
+      "(`colmap_ext/exe/community_mapper_options.cc`); "
+      "`colmap community_mapper -h` lists the same. Every option is "
+      "`--CommunityMapper.NAME VALUE`. The command also takes COLMAP's "
+      "`--Mapper.*` options (every community's incremental mapper and the "
+      "merge's registration, triangulation and bundle adjustment; "
+      "`--Mapper.min_num_matches` is the view graph's minimum of verified "
+      "inlier matches per edge), `--image_list_path` and `--project_path`.\n"
+      "\n"
+      "Options marked *plan* shape the partition and the communities' "
+      "models: the plan records them, and a later stage or a resumed run "
+      "given another value is refused.\n";
+  for (const bool advanced : {false, true}) {
+    text += advanced ? "\n## Advanced options, by stage\n\n"
+                     : "\n## Options users set\n\n";
+    text += "| option | default | meaning |\n| --- | --- | --- |\n";
+    for (const CommunityMapperOption& option : table) {
+      if (option.advanced == advanced) {
+        text += "| `" + option.name + "` | " + option.ValueToText() +
+                " | " + (option.shapes_plan ? "*plan*: " : "") + option.help +
+                " |\n";
+      }
+    }
+  }
+  return text;
 }
 
 }  // namespace colmap

@@ -1,4 +1,5 @@
-// Helpers for colmap_ext's tests (linked into the test binaries only).
+// Helpers for colmap_ext's tests (linked into the test binaries and the
+// options doc tool only).
 
 #pragma once
 
@@ -9,6 +10,7 @@
 
 #include <set>
 #include <string>
+#include <unordered_map>
 
 namespace colmap {
 
@@ -22,6 +24,14 @@ int RunCommand(const std::string& command, std::string* output = nullptr);
 
 // Quotes a string for the shell.
 std::string ShellQuote(const std::string& text);
+
+// Reads communities.txt (see workflow/community_io.h) into image name ->
+// community id. Throws on malformed lines and on an image listed twice.
+std::unordered_map<std::string, int> ReadCommunities(const std::string& path);
+
+// docs/options.md: every option of the `--CommunityMapper.*` table (see
+// exe/community_mapper_options.h) with its default and help, users' first.
+std::string CommunityMapperOptionsMarkdown();
 
 // Two landmarks joined by a walkway, without noise (seed 7, 20 images per
 // landmark, 10 on the walkway); `landmark1_images` receives landmark 1's

@@ -1,7 +1,7 @@
 // Prints docs/options.md, the table of `colmap community_mapper`'s options:
 //
 //   build/community_mapper_options_doc > docs/options.md
-#include "colmap_ext/exe/community_mapper_options.h"
+#include "colmap_ext/testing/testing.h"
 
 #include <iostream>
 

@@ -5,7 +5,6 @@
 #include "colmap/util/string.h"
 
 #include <algorithm>
-#include <fstream>
 #include <numeric>
 #include <sstream>
 
@@ -85,26 +84,6 @@ std::string ReadImageList(const std::string& path,
   std::sort(names->begin(), names->end());
   names->erase(std::unique(names->begin(), names->end()), names->end());
   return "";
-}
-
-std::unordered_map<std::string, int> ReadCommunities(const std::string& path) {
-  std::ifstream file(path);
-  THROW_CHECK_FILE_OPEN(file, path);
-  std::unordered_map<std::string, int> communities;
-  std::string line;
-  while (std::getline(file, line)) {
-    StringTrim(&line);
-    if (line.empty() || line[0] == '#') {
-      continue;
-    }
-    const size_t space = line.find_last_of(' ');
-    THROW_CHECK_NE(space, std::string::npos) << "Malformed line: " << line;
-    const std::string name = line.substr(0, space);
-    const int community = std::stoi(line.substr(space + 1));
-    THROW_CHECK(communities.emplace(name, community).second)
-        << "Image listed twice: " << name;
-  }
-  return communities;
 }
 
 Eigen::Vector3ub CommunityColor(const int community_id) {

@@ -30,10 +30,6 @@ std::string CommunitiesToText(const ViewGraph& view_graph,
                               double modularity_threshold,
                               ViewGraphEdgeWeight edge_weight);
 
-// Reads communities.txt into image name -> community id. Throws on
-// malformed lines.
-std::unordered_map<std::string, int> ReadCommunities(const std::string& path);
-
 // Reads an image list into its distinct names, sorted, each without the
 // blanks around it; empty lines are skipped. Returns the problem, for the
 // user (empty if none): a missing file, or one that names no image.

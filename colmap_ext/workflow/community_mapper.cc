@@ -42,6 +42,10 @@ CommunityMergerOptions CommunityMapperController::Options::MergeOptions()
   merge_options.image_names = image_names;
   merge_options.min_num_matches = incremental_options.min_num_matches;
   merge_options.incremental_options = incremental_options;
+  merge_options.refinement_function_tolerance =
+      ba_function_tolerance >= 0
+          ? ba_function_tolerance
+          : incremental_options.ba_global_function_tolerance;
   return merge_options;
 }
 
@@ -58,9 +62,8 @@ CommunityMapperController::Options::CommunityIncrementalOptions(
   if (community_options.num_threads < 0) {
     community_options.num_threads = num_threads;
   }
-  if (!only_community && community_ba_function_tolerance >= 0) {
-    community_options.ba_global_function_tolerance =
-        community_ba_function_tolerance;
+  if (!only_community && ba_function_tolerance >= 0) {
+    community_options.ba_global_function_tolerance = ba_function_tolerance;
   }
   return community_options;
 }
@@ -74,10 +77,9 @@ bool CommunityMapperController::Options::Check() const {
                      num_workers,
                      "positive, or -1 for one per CPU core");
   valid &=
-      CheckFlag(community_ba_function_tolerance >= 0 ||
-                    community_ba_function_tolerance == -1,
-                "community_ba_function_tolerance",
-                community_ba_function_tolerance,
+      CheckFlag(ba_function_tolerance >= 0 || ba_function_tolerance == -1,
+                "ba_function_tolerance",
+                ba_function_tolerance,
                 "0 or more, or -1 for --Mapper.ba_global_function_tolerance");
   return valid && MergeOptions().Check();  // With incremental_options'.
 }
@@ -365,10 +367,6 @@ bool CommunityMapperController::CheckAllReconstructed() const {
     }
   }
   if (!missing.empty()) {
-    std::string ids;
-    for (const int c : missing) {
-      ids += (ids.empty() ? "" : ", ") + std::to_string(c);
-    }
     LOG(ERROR) << StringPrintf(
         "%d of the %d communities of the plan have not been reconstructed "
         "(no record in %s): %s. Reconstruct them first (colmap "
@@ -376,7 +374,7 @@ bool CommunityMapperController::CheckAllReconstructed() const {
         static_cast<int>(missing.size()),
         plan_.NumCommunities(),
         workspace_.CommunitiesDir().c_str(),
-        ids.c_str());
+        VectorToCSV(missing).c_str());
     return false;
   }
   return true;

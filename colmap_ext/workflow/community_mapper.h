@@ -92,18 +92,16 @@ class CommunityMapperController : public BaseController {
     // are split evenly among the workers.
     int num_workers = -1;
 
-    // Relative function tolerance at which the global bundle adjustments
-    // of each community's incremental mapper stop; -1 takes
-    // incremental_options.ba_global_function_tolerance (COLMAP's 0 runs
-    // every global adjustment to its iteration limit). The merged model is
-    // adjusted as a whole at the end, so the communities need not polish
-    // the last digits; the plan's only community, whose model is the
-    // result, runs the mapper's own.
-    double community_ba_function_tolerance = 1e-6;
+    // Relative function tolerance at which the global bundle adjustments of
+    // the communities' mappers and the merged model's refinement stop; -1
+    // takes incremental_options.ba_global_function_tolerance (COLMAP's 0
+    // runs every global adjustment to its iteration limit). The plan's only
+    // community, whose model is the result, runs the mapper's own.
+    double ba_function_tolerance = 1e-6;
 
     // The merge stage (community_merger.h). Its database_path, image_path,
-    // image_names, min_num_matches and incremental_options are this
-    // struct's (MergeOptions()).
+    // image_names, min_num_matches, incremental_options and
+    // refinement_function_tolerance are this struct's (MergeOptions()).
     CommunityMergerOptions merge;
 
     // Options of the incremental mapper (per community, and for the
@@ -117,7 +115,7 @@ class CommunityMapperController : public BaseController {
     // The incremental mapper's options for one community's images:
     // incremental_options with the community's images (sorted) and
     // image_path, num_threads threads if incremental_options leaves it to
-    // the machine, and community_ba_function_tolerance unless it is the
+    // the machine, and ba_function_tolerance unless it is the
     // plan's `only_community`.
     IncrementalPipelineOptions CommunityIncrementalOptions(
         const std::unordered_set<std::string>& image_names,

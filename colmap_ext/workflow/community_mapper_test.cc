@@ -21,24 +21,31 @@ TEST(CommunityIncrementalOptions, AreTheMappersOnTheCommunitysImages) {
   EXPECT_TRUE(community_options.Check());
 }
 
-// The communities' global adjustments stop at community_ba_function_tolerance;
-// a plan of one community, or -1, runs the mapper's own.
+// The global adjustments of the communities and the merged model's
+// refinement stop at ba_function_tolerance; a plan of one community, or -1,
+// runs the mapper's own. The registration into the merged model is the
+// user's mapper, at the user's tolerance.
 TEST(CommunityIncrementalOptions,
      GlobalAdjustmentsStopAtTheCommunityTolerance) {
   CommunityMapperController::Options options;
   options.incremental_options.ba_global_function_tolerance = 1e-9;
-  options.community_ba_function_tolerance = 1e-5;
+  options.ba_function_tolerance = 1e-5;
   EXPECT_EQ(options.CommunityIncrementalOptions({"a.jpg"}, 1)
                 .ba_global_function_tolerance,
             1e-5);
+  EXPECT_EQ(options.MergeOptions().refinement_function_tolerance, 1e-5);
+  EXPECT_EQ(
+      options.MergeOptions().incremental_options.ba_global_function_tolerance,
+      1e-9);
   EXPECT_EQ(
       options.CommunityIncrementalOptions({"a.jpg"}, 1, /*only_community=*/true)
           .ba_global_function_tolerance,
       1e-9);
-  options.community_ba_function_tolerance = -1;
+  options.ba_function_tolerance = -1;
   EXPECT_EQ(options.CommunityIncrementalOptions({"a.jpg"}, 1)
                 .ba_global_function_tolerance,
             1e-9);
+  EXPECT_EQ(options.MergeOptions().refinement_function_tolerance, 1e-9);
 }
 
 // A thread count the user sets is kept.

@@ -9,10 +9,12 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <sstream>
 #include <stdexcept>
 #include <system_error>
+#include <type_traits>
 
 namespace colmap {
 namespace {
@@ -62,22 +64,26 @@ const std::string& Value(const std::map<std::string, std::string>& values,
   return it->second;
 }
 
-int IntValue(const std::map<std::string, std::string>& values,
-             const std::string& key) {
+// The value of `key` as a T (int or double).
+template <typename T>
+T NumberValue(const std::map<std::string, std::string>& values,
+              const std::string& key) {
   try {
-    return std::stoi(Value(values, key));
+    const std::string& value = Value(values, key);
+    return std::is_same_v<T, int> ? std::stoi(value) : std::stod(value);
   } catch (const std::logic_error&) {
     throw std::invalid_argument("its '" + key + "' is not a number");
   }
 }
 
-double DoubleValue(const std::map<std::string, std::string>& values,
-                   const std::string& key) {
-  try {
-    return std::stod(Value(values, key));
-  } catch (const std::logic_error&) {
-    throw std::invalid_argument("its '" + key + "' is not a number");
-  }
+// The items sorted by `key` (a member or a getter), so that the fingerprint
+// does not depend on the order in which the database returns them.
+template <typename T, typename Key>
+std::vector<T> SortedBy(std::vector<T> items, const Key key) {
+  std::sort(items.begin(), items.end(), [key](const T& a, const T& b) {
+    return std::invoke(key, a) < std::invoke(key, b);
+  });
+  return items;
 }
 
 std::map<std::string, std::string> OptionLines(const std::string& options) {
@@ -98,55 +104,8 @@ std::map<std::string, std::string> OptionLines(const std::string& options) {
 CommunityWorkspace::CommunityWorkspace(std::string output_path)
     : output_path_(std::move(output_path)) {}
 
-std::string CommunityWorkspace::PlanPath() const {
-  return (std::filesystem::path(output_path_) / kPlanFileName).string();
-}
-
-std::string CommunityWorkspace::CommunitiesPath() const {
-  return (std::filesystem::path(output_path_) / kCommunitiesFileName).string();
-}
-
-std::string CommunityWorkspace::CommunitiesDir() const {
-  return (std::filesystem::path(output_path_) / kCommunitiesDirName).string();
-}
-
-std::string CommunityWorkspace::CommunityModelPath(
-    const int community_id) const {
-  return (std::filesystem::path(CommunitiesDir()) /
-          std::to_string(community_id))
-      .string();
-}
-
-std::string CommunityWorkspace::CommunityOtherModelPath(const int community_id,
-                                                        const int index) const {
-  return (std::filesystem::path(CommunitiesDir()) /
-          (std::to_string(community_id) + "." + std::to_string(index)))
-      .string();
-}
-
-std::string CommunityWorkspace::CommunityRecordPath(
-    const int community_id) const {
-  return (std::filesystem::path(CommunitiesDir()) /
-          (std::to_string(community_id) + ".done"))
-      .string();
-}
-
-std::string CommunityWorkspace::MergedModelPath(const int model_index) const {
-  return (std::filesystem::path(output_path_) / std::to_string(model_index))
-      .string();
-}
-
-std::string CommunityWorkspace::CommunitiesPlyPath() const {
-  return (std::filesystem::path(output_path_) / kCommunitiesPlyFileName)
-      .string();
-}
-
-std::string CommunityWorkspace::ProjectPath() const {
-  return (std::filesystem::path(output_path_) / kProjectFileName).string();
-}
-
-std::string CommunityWorkspace::SummaryPath() const {
-  return (std::filesystem::path(output_path_) / kSummaryFileName).string();
+std::string CommunityWorkspace::Join(const std::string& name) const {
+  return (std::filesystem::path(output_path_) / name).string();
 }
 
 std::vector<std::string> CommunityWorkspace::MergedModelPaths() const {
@@ -337,11 +296,8 @@ std::string TextsFingerprint(const std::vector<std::string>& texts) {
 
 std::string DatabaseFingerprint(const Database& database) {
   Fingerprint fingerprint;
-  std::vector<Camera> cameras = database.ReadAllCameras();
-  std::sort(cameras.begin(), cameras.end(), [](const auto& a, const auto& b) {
-    return a.camera_id < b.camera_id;
-  });
-  for (const Camera& camera : cameras) {
+  for (const Camera& camera :
+       SortedBy(database.ReadAllCameras(), &Camera::camera_id)) {
     std::string params;
     for (const double param : camera.params) {
       params += StringPrintf(" %.17g", param);
@@ -353,11 +309,8 @@ std::string DatabaseFingerprint(const Database& database) {
                                  static_cast<int>(camera.height),
                                  params.c_str()));
   }
-  std::vector<Image> images = database.ReadAllImages();
-  std::sort(images.begin(), images.end(), [](const auto& a, const auto& b) {
-    return a.ImageId() < b.ImageId();
-  });
-  for (const Image& image : images) {
+  for (const Image& image :
+       SortedBy(database.ReadAllImages(), &Image::ImageId)) {
     fingerprint.Add(StringPrintf("image %d %d ",
                                  static_cast<int>(image.ImageId()),
                                  static_cast<int>(image.CameraId())) +
@@ -366,11 +319,7 @@ std::string DatabaseFingerprint(const Database& database) {
   // Rigs and frames decide which images the mappers pose together. A
   // database without them (the mappers then take one rig per camera and one
   // frame per image) adds nothing.
-  std::vector<Rig> rigs = database.ReadAllRigs();
-  std::sort(rigs.begin(), rigs.end(), [](const auto& a, const auto& b) {
-    return a.RigId() < b.RigId();
-  });
-  for (const Rig& rig : rigs) {
+  for (const Rig& rig : SortedBy(database.ReadAllRigs(), &Rig::RigId)) {
     std::string sensors = StringPrintf(" %d:%d",
                                        static_cast<int>(rig.RefSensorId().type),
                                        static_cast<int>(rig.RefSensorId().id));
@@ -387,11 +336,8 @@ std::string DatabaseFingerprint(const Database& database) {
     fingerprint.Add(StringPrintf("rig %d", static_cast<int>(rig.RigId())) +
                     sensors);
   }
-  std::vector<Frame> frames = database.ReadAllFrames();
-  std::sort(frames.begin(), frames.end(), [](const auto& a, const auto& b) {
-    return a.FrameId() < b.FrameId();
-  });
-  for (const Frame& frame : frames) {
+  for (const Frame& frame :
+       SortedBy(database.ReadAllFrames(), &Frame::FrameId)) {
     std::string data = StringPrintf("frame %d %d",
                                     static_cast<int>(frame.FrameId()),
                                     static_cast<int>(frame.RigId()));
@@ -490,18 +436,18 @@ std::string DescribeCommunityRecord(const CommunityRecord& record) {
 CommunityRecord CommunityRecordFromText(const std::string& text) {
   const std::map<std::string, std::string> values = ReadKeyValues(text);
   CommunityRecord record;
-  record.community_id = IntValue(values, "community");
-  record.num_images = IntValue(values, "num_images");
-  record.num_registered = IntValue(values, "num_registered");
-  record.num_points = IntValue(values, "num_points");
-  record.num_models = IntValue(values, "num_models");
+  record.community_id = NumberValue<int>(values, "community");
+  record.num_images = NumberValue<int>(values, "num_images");
+  record.num_registered = NumberValue<int>(values, "num_registered");
+  record.num_points = NumberValue<int>(values, "num_points");
+  record.num_models = NumberValue<int>(values, "num_models");
   // The line is optional: a record without it has no other model.
   record.num_other_models = values.count("num_other_models") > 0
-                                ? IntValue(values, "num_other_models")
+                                ? NumberValue<int>(values, "num_other_models")
                                 : 0;
   record.mean_reprojection_error =
-      DoubleValue(values, "mean_reprojection_error");
-  record.seconds = DoubleValue(values, "seconds");
+      NumberValue<double>(values, "mean_reprojection_error");
+  record.seconds = NumberValue<double>(values, "seconds");
   record.database_fingerprint = Value(values, "database_fingerprint");
   return record;
 }

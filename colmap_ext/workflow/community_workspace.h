@@ -33,31 +33,32 @@
 
 namespace colmap {
 
-// File names inside OUT.
-constexpr char kPlanFileName[] = "plan.txt";
-constexpr char kCommunitiesFileName[] = "communities.txt";
-constexpr char kCommunitiesDirName[] = "communities";
-constexpr char kCommunitiesPlyFileName[] = "communities.ply";
-constexpr char kProjectFileName[] = "project.ini";
-constexpr char kSummaryFileName[] = "summary.txt";
-
 class CommunityWorkspace {
  public:
   explicit CommunityWorkspace(std::string output_path);
 
   const std::string& OutputPath() const { return output_path_; }
-  std::string PlanPath() const;
-  std::string CommunitiesPath() const;
-  std::string CommunitiesDir() const;
-  std::string CommunityModelPath(int community_id) const;
+  std::string PlanPath() const { return Join("plan.txt"); }
+  std::string CommunitiesPath() const { return Join("communities.txt"); }
+  std::string CommunitiesDir() const { return Join("communities"); }
+  std::string CommunityModelPath(int community_id) const {
+    return Join("communities/" + std::to_string(community_id));
+  }
   // The mapper's other models of the community: index 1 is the second
   // largest, and so on.
-  std::string CommunityOtherModelPath(int community_id, int index) const;
-  std::string CommunityRecordPath(int community_id) const;
-  std::string MergedModelPath(int model_index) const;
-  std::string CommunitiesPlyPath() const;
-  std::string ProjectPath() const;
-  std::string SummaryPath() const;
+  std::string CommunityOtherModelPath(int community_id, int index) const {
+    return Join("communities/" + std::to_string(community_id) + "." +
+                std::to_string(index));
+  }
+  std::string CommunityRecordPath(int community_id) const {
+    return Join("communities/" + std::to_string(community_id) + ".done");
+  }
+  std::string MergedModelPath(int model_index) const {
+    return Join(std::to_string(model_index));
+  }
+  std::string CommunitiesPlyPath() const { return Join("communities.ply"); }
+  std::string ProjectPath() const { return Join("project.ini"); }
+  std::string SummaryPath() const { return Join("summary.txt"); }
 
   // Whether OUT holds results of a run (a plan, a partition, communities or
   // merged models).
@@ -82,6 +83,9 @@ class CommunityWorkspace {
   std::vector<std::string> MergedModelPaths() const;
 
  private:
+  // OUT/name.
+  std::string Join(const std::string& name) const;
+
   std::string output_path_;
 };
 

@@ -1,5 +1,7 @@
 #include "colmap_ext/workflow/database_migration.h"
 
+#include "colmap_ext/workflow/sqlite_connection.h"
+
 #include "colmap/scene/database.h"
 #include "colmap/util/file.h"
 #include "colmap/util/logging.h"
@@ -8,62 +10,8 @@
 #include <limits>
 #include <vector>
 
-#include <sqlite3.h>
-
 namespace colmap {
 namespace {
-
-// An SQLite connection, closed when it goes out of scope.
-class SqliteConnection {
- public:
-  SqliteConnection(const std::string& path, const int flags) {
-    if (sqlite3_open_v2(path.c_str(), &db_, flags, nullptr) != SQLITE_OK) {
-      const std::string message = db_ ? sqlite3_errmsg(db_) : "out of memory";
-      sqlite3_close_v2(db_);
-      db_ = nullptr;
-      throw std::runtime_error("cannot open " + path + ": " + message);
-    }
-  }
-  ~SqliteConnection() { sqlite3_close_v2(db_); }
-  SqliteConnection(const SqliteConnection&) = delete;
-  SqliteConnection& operator=(const SqliteConnection&) = delete;
-
-  sqlite3* get() const { return db_; }
-
-  void Execute(const std::string& sql) const {
-    char* error = nullptr;
-    if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &error) != SQLITE_OK) {
-      const std::string message = error ? error : sqlite3_errmsg(db_);
-      sqlite3_free(error);
-      throw std::runtime_error(sql + ": " + message);
-    }
-  }
-
-  // Whether the statement `sql` gives at least one row.
-  bool HasRow(const std::string& sql) const {
-    sqlite3_stmt* statement = nullptr;
-    if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &statement, nullptr) !=
-        SQLITE_OK) {
-      throw std::runtime_error(sql + ": " + sqlite3_errmsg(db_));
-    }
-    const bool has_row = sqlite3_step(statement) == SQLITE_ROW;
-    sqlite3_finalize(statement);
-    return has_row;
-  }
-
-  bool HasTable(const std::string& table) const {
-    return HasRow("SELECT 1 FROM sqlite_master WHERE type='table' AND name='" +
-                  table + "';");
-  }
-
-  bool HasColumn(const std::string& table, const std::string& column) const {
-    return HasRow("SELECT 1 FROM pragma_table_info('" + table +
-                  "') WHERE name='" + column + "';");
-  }
-
- private:
-  sqlite3* db_ = nullptr;
-};
 
 // A consistent copy of the database at `source` (with what its write-ahead
 // log holds) into `target`, through SQLite's backup API.
