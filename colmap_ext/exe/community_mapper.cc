@@ -117,7 +117,7 @@ bool RunController(
     const CommunityMapperCommand& command,
     const CommunityMapperController::Options& options,
     std::shared_ptr<ReconstructionManager> reconstruction_manager,
-    CommunityMapperController::Summary* summary) {
+    CommunityMapperSummary* summary) {
   try {
     CommunityMapperController controller(options,
                                          std::move(reconstruction_manager));
@@ -154,7 +154,7 @@ std::vector<std::string> WriteOutputs(
     const CommunityMapperCommand& command,
     const CommunityWorkspace& workspace,
     const ReconstructionManager& reconstruction_manager,
-    const CommunityMapperController::Summary& summary) {
+    const CommunityMapperSummary& summary) {
   if (command.stage == CommunityMapperStage::kCommunity) {
     return {workspace.CommunityModelPath(command.community_id) +
             " (the community's model) and its record " +
@@ -179,7 +179,7 @@ std::vector<std::string> WriteOutputs(
         (std::filesystem::path(workspace.MergedModelPath(i)) / "project.ini")
             .string());
   }
-  WriteTextFileAtomically(CommunityMapperController::SummaryToText(summary),
+  WriteTextFileAtomically(CommunityMapperSummaryToText(summary),
                           workspace.SummaryPath());
   return {workspace.MergedModelPath(0) +
               (models.size() > 1 ? " .. " + std::to_string(models.size() - 1)
@@ -210,7 +210,7 @@ bool RunCommunityMapperImpl(const CommunityMapperCommand& command) {
     CheckImagePath(options.image_path);
   }
   auto models = std::make_shared<ReconstructionManager>();
-  CommunityMapperController::Summary summary;
+  CommunityMapperSummary summary;
   if (!RunController(command, options, models, &summary)) {
     return false;
   }

@@ -1,23 +1,19 @@
-// The community mapper's commands.
+// The community mapper's commands (docs/design.md, Outputs and workflow).
 //
 //   colmap community_mapper --database_path DB --image_path IMAGES
 //       --output_path OUT [--CommunityMapper.* ...] [--Mapper.* ...]
 //
-// runs every stage in one process (partition, the communities, the merge)
-// and resumes a killed run of the same command on the same OUT. The stages
-// also run alone, e.g. as the jobs of a cluster's scheduler
-// (scripts/slurm_community_mapper.sh):
+// runs every stage in one process and resumes a killed run on the same OUT;
+// the stages also run alone (scripts/slurm_community_mapper.sh):
 //
 //   colmap community_partitioner   (same options)   -> OUT/plan.txt, ...
 //   colmap community_reconstructor --project_path OUT/project.ini
 //       --community_id K                            -> OUT/communities/K
 //   colmap community_merger --project_path OUT/project.ini -> OUT/0, ...
 //
-// OUT's layout is community_workspace.h's. Bad input is refused with a
-// message naming the problem before anything is written; results of an
-// earlier run that the command would not resume are only replaced with
-// --CommunityMapper.overwrite 1; one run at a time writes an OUT
-// (output_lock.h).
+// Bad input is refused before anything is written; results a command would
+// not resume are replaced only with --CommunityMapper.overwrite 1; one run at
+// a time writes an OUT (output_lock.h).
 
 #pragma once
 
@@ -39,17 +35,15 @@ struct CommunityMapperCommand {
   // The options (community_mapper_options.h); their values are checked by
   // RunCommunityMapperImpl.
   CommunityMapperCommandOptions options;
-  // --image_list_path: a text file of the image names to reconstruct, one
-  // per line, as colmap mapper's --Mapper.image_list_path (empty: every
-  // image of the database). --Mapper.image_list_path itself is refused.
+  // --image_list_path: the image names to reconstruct, one per line (empty:
+  // every image); --Mapper.image_list_path itself is refused.
   std::string image_list_path;
   // The community of kCommunity.
   int community_id = -1;
   // Written to OUT/project.ini by the partition and the merge (if not empty).
   std::string project_ini;
   // COLMAP's options alone, written as project.ini beside every merged
-  // model as `colmap mapper` does (the GUI reads the database and image
-  // paths from it).
+  // model as `colmap mapper` does.
   std::string colmap_ini;
 };
 

@@ -1,14 +1,11 @@
-// The one table of `--CommunityMapper.*` options.
-//
-// Every option is declared once: its flag, the field it sets, its help,
-// whether it shapes the plan (the partition and the communities' models:
-// the plan records it, and a later stage or a resumed run given another
-// value is refused), and whether it is an advanced one (prefixed by its
-// stage). The table drives the command's OptionManager registration, the
-// [CommunityMapper] section of project.ini, the plan's keys and
-// docs/options.md (CommunityMapperOptionsMarkdown, testing/testing.h). The
-// defaults are the fields' own (CommunityMapperController::Options and the
-// stages' options structs); the range checks are their Check()s.
+// The one table of `--CommunityMapper.*` options: each declared once with
+// its flag, field, help, and whether it shapes the plan (a later stage or a
+// resumed run given another value is refused) or is advanced. The table
+// drives the OptionManager registration, project.ini's [CommunityMapper]
+// section, the plan's keys and docs/options.md (CommunityMapperOptionsMarkdown,
+// testing/testing.h); the defaults are the fields' own
+// (CommunityMapperController::Options and the stages' options structs), the
+// range checks their Check()s.
 #pragma once
 
 #include "colmap_ext/workflow/community_mapper.h"
@@ -106,12 +103,10 @@ std::string CommunityMapperIniSection(
 // The names of the options that shape the plan.
 std::vector<std::string> CommunityMapperPlanKeys();
 
-// The options that shape the partition and the communities' models, as
-// "Section.key=value" lines of a project.ini text: every incremental mapper
-// option but its threads, GPU index and snapshots, and the plan's
-// CommunityMapper options. The plan records them; the later stages refuse a
-// plan made with others. The merge's own options may differ between merges
-// of the same communities.
+// The options that shape the plan, as "Section.key=value" lines of a
+// project.ini text: every incremental mapper option but its threads, GPU
+// index and snapshots, and the plan's CommunityMapper options (the merge's
+// own may differ between merges of the same communities).
 std::string PlanOptionsFromIni(const std::string& project_ini);
 
 }  // namespace colmap

@@ -46,7 +46,9 @@ struct PairOutcome {
   bool has_similarity = false;
   RelativeSimilarity similarity;
   std::vector<image_pair_t> false_pairs;
-  std::vector<RejectedSimilarity> rejected;
+  // The inlier point pairs of every transform the co-visibility check
+  // rejected.
+  std::set<std::pair<point3D_t, point3D_t>> rejected_inliers;
   std::string log;
 };
 
@@ -87,47 +89,28 @@ std::vector<CrossPairMatches> SharedImageMatches(const Reconstruction& model1,
 }
 
 // The cross pairs whose linked points mostly supported rejected transforms
-// are false (left in the refinement, the matches between two identical
+// are false: left in the refinement, the matches between two identical
 // towers become tracks that tie each point of one tower to its twin on the
-// other and bend the merged model), each also recorded with the rejected
-// transform it mostly supports (ResidualsAgainstMerge). Each rejected
-// transform is estimated from the outliers of those before it
-// (EstimatePairwiseSimilarity), so their inliers are disjoint and a pair's
-// points supporting any of them are the sum of those supporting each.
+// other and bend the merged model.
 void RecordFalseCrossPairs(const Reconstruction& model1,
                            const Reconstruction& model2,
                            const std::vector<CrossPairMatches>& cross_pairs,
                            const size_t num_shared_images,
                            PairOutcome* outcome) {
-  if (outcome->rejected.empty()) {
+  if (outcome->rejected_inliers.empty()) {
     return;
-  }
-  std::vector<std::set<std::pair<point3D_t, point3D_t>>>
-      rejected_inliers_by_transform;
-  for (const RejectedSimilarity& rejected_similarity : outcome->rejected) {
-    rejected_inliers_by_transform.emplace_back(
-        rejected_similarity.similarity.point3D_ids.begin(),
-        rejected_similarity.similarity.point3D_ids.end());
   }
   for (size_t k = num_shared_images; k < cross_pairs.size(); ++k) {
     const PointCorrespondences pair_points =
         FindPointCorrespondences(model1, model2, {cross_pairs[k]});
-    const image_pair_t pair_id =
-        ImagePairToPairId(cross_pairs[k].image_id1, cross_pairs[k].image_id2);
     size_t num_rejected_points = 0;
-    for (size_t j = 0; j < outcome->rejected.size(); ++j) {
-      size_t num_supporting = 0;
-      for (size_t i = 0; i < pair_points.Size(); ++i) {
-        num_supporting += rejected_inliers_by_transform[j].count(
-            {pair_points.point3D_ids1[i], pair_points.point3D_ids2[i]});
-      }
-      if (2 * num_supporting > pair_points.Size()) {
-        outcome->rejected[j].pairs.push_back(pair_id);
-      }
-      num_rejected_points += num_supporting;
+    for (size_t i = 0; i < pair_points.Size(); ++i) {
+      num_rejected_points += outcome->rejected_inliers.count(
+          {pair_points.point3D_ids1[i], pair_points.point3D_ids2[i]});
     }
     if (2 * num_rejected_points > pair_points.Size()) {
-      outcome->false_pairs.push_back(pair_id);
+      outcome->false_pairs.push_back(ImagePairToPairId(
+          cross_pairs[k].image_id1, cross_pairs[k].image_id2));
     }
   }
 }
@@ -186,8 +169,8 @@ PairOutcome EstimatePairSimilarity(
                                          is_compared_pair,
                                          covisibility_options);
         if (!covisibility.consistent) {
-          outcome.rejected.push_back(
-              {ToRelativeSimilarity(community1, community2, candidate)});
+          outcome.rejected_inliers.insert(candidate.inlier_point3D_ids.begin(),
+                                          candidate.inlier_point3D_ids.end());
           rejected += StringPrintf(
               " [%d inliers rejected: co-visible pairs verified %d of %d "
               "across, %d of %d inside; close views %d of %d across, %d of "
@@ -341,9 +324,6 @@ CommunitySimilarities EstimateCommunitySimilarities(
     LOG(INFO) << outcome.log;
     result.false_pairs.insert(outcome.false_pairs.begin(),
                               outcome.false_pairs.end());
-    for (RejectedSimilarity& rejected : outcome.rejected) {
-      result.rejected_similarities.push_back(std::move(rejected));
-    }
     if (outcome.has_similarity) {
       result.similarities.push_back(std::move(outcome.similarity));
     }

@@ -12,10 +12,7 @@
 // from its outliers, up to PairwiseSimilarityOptions::max_num_hypotheses.
 // The cross pairs whose matches mostly supported rejected transforms (e.g.
 // matches between two identical facades) are reported as false pairs: the
-// merged model's refinement must not re-introduce them as tracks. The
-// rejected transforms are reported too, each with its pairs, so that the
-// merge can confirm one that a cycle of other links places alike
-// (link_confirmation.h).
+// merged model's refinement must not re-introduce them as tracks.
 
 #pragma once
 
@@ -44,23 +41,12 @@ CrossEdges GroupCrossEdges(
     const ViewGraph& view_graph,
     const std::unordered_map<image_t, int>& community_of_image);
 
-// A transform that the co-visibility check rejected.
-struct RejectedSimilarity {
-  // The communities, the transform and its inliers (the shared images are
-  // not checked for it).
-  RelativeSimilarity similarity;
-  // The cross pairs whose matches mostly support it.
-  std::vector<image_pair_t> pairs;
-};
-
 struct CommunitySimilarities {
   // One per community pair with a usable similarity (with its inliers'
   // point ids).
   std::vector<RelativeSimilarity> similarities;
   // Cross pairs whose matches mostly support rejected transforms.
   std::unordered_set<image_pair_t> false_pairs;
-  // The rejected transforms.
-  std::vector<RejectedSimilarity> rejected_similarities;
 };
 
 // The similarities of every pair of communities that cross edges join and

@@ -137,37 +137,45 @@ TEST_F(EstimateCommunitySimilaritiesTest, RecoversTheRelativeSimilarity) {
   }
 }
 
-TEST_F(EstimateCommunitySimilaritiesTest, ReportsRejectedTransformsWithPairs) {
+TEST_F(EstimateCommunitySimilaritiesTest, PairsOfARejectedTransformAreFalse) {
   // A check no alignment can pass (twice the internal rate asked across,
-  // on any number of predicted pairs)
-  // rejects the right transform: it is reported with the cross pairs that
-  // support it, which are false pairs until the merge confirms it.
+  // on any number of predicted pairs) rejects the right transform: no
+  // similarity is used, and the cross pairs whose matches support it are
+  // false pairs, which the merged model leaves out.
   CovisibilityCheckOptions strict;
   strict.min_rate_ratio = 2.0;
   strict.min_num_predicted_pairs = 1;
   PairwiseSimilarityOptions one_hypothesis;
   one_hypothesis.max_num_hypotheses = 1;
+  const CrossEdges cross_edges = GroupCrossEdges(view_graph_, community_of_image_);
   const CommunitySimilarities result = EstimateCommunitySimilarities(
       *database_,
       view_graph_,
-      GroupCrossEdges(view_graph_, community_of_image_),
+      cross_edges,
       {CommunityModel(0), CommunityModel(1)},
       one_hypothesis,
       strict);
   EXPECT_TRUE(result.similarities.empty());
-  ASSERT_EQ(result.rejected_similarities.size(), 1);
-  const RejectedSimilarity& rejected = result.rejected_similarities[0];
-  const Sim3d expected =
-      world_to_community_[1] * Inverse(world_to_community_[0]);
-  EXPECT_LT(rejected.similarity.second_from_first.rotation().angularDistance(
-                expected.rotation()),
-            1e-2);
-  EXPECT_GE(rejected.similarity.points1.size(),
-            static_cast<size_t>(one_hypothesis.min_num_inliers));
-  ASSERT_FALSE(rejected.pairs.empty());
-  for (const image_pair_t pair_id : rejected.pairs) {
-    EXPECT_EQ(result.false_pairs.count(pair_id), 1);
+  ASSERT_EQ(cross_edges.size(), 1);
+  const auto& cross_pairs = cross_edges.begin()->second;
+  EXPECT_GE(result.false_pairs.size(), cross_pairs.size() / 2);
+  for (const image_pair_t pair_id : result.false_pairs) {
+    const auto [image_id1, image_id2] = PairIdToImagePair(pair_id);
+    EXPECT_EQ(community_of_image_.at(image_id1) +
+                  community_of_image_.at(image_id2),
+              1);
   }
+
+  // Passed, the same transform leaves no pair false.
+  const CommunitySimilarities passed = EstimateCommunitySimilarities(
+      *database_,
+      view_graph_,
+      cross_edges,
+      {CommunityModel(0), CommunityModel(1)},
+      one_hypothesis,
+      CovisibilityCheckOptions());
+  EXPECT_EQ(passed.similarities.size(), 1);
+  EXPECT_TRUE(passed.false_pairs.empty());
 }
 
 TEST_F(EstimateCommunitySimilaritiesTest, CommunityWithoutModelHasNone) {

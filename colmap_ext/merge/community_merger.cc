@@ -1,17 +1,13 @@
 #include "colmap_ext/merge/community_merger.h"
 
-#include "colmap_ext/partition/view_graph.h"
 #include "colmap_ext/reconstruction/filtered_database_cache.h"
-#include "colmap_ext/merge/community_alignment.h"
 #include "colmap_ext/merge/global_refinement.h"
-#include "colmap_ext/merge/link_confirmation.h"
 #include "colmap_ext/merge/model_join.h"
 #include "colmap_ext/merge/part_offers.h"
 #include "colmap_ext/util/process_memory.h"
 
 #include "colmap/math/random.h"
 #include "colmap/scene/database.h"
-#include "colmap/scene/database_cache.h"
 #include "colmap/util/logging.h"
 #include "colmap/util/misc.h"
 #include "colmap/util/string.h"
@@ -19,7 +15,6 @@
 #include "colmap/util/types.h"
 
 #include <algorithm>
-#include <map>
 
 namespace colmap {
 namespace {
@@ -53,14 +48,11 @@ CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
   return groups;
 }
 
-// Community `record.community_id`'s other models, as its stage wrote them
-// into `workspace` (largest first), each become an extra community if they
-// registered at least `min_model_size` of the community's own images that
-// no larger model of it taking part did. The extra community, numbered after
-// those in `models`, owns those images (the community keeps the others):
-// its shape is the mapper's, joined by a similarity as any community's,
-// instead of its images being registered anew one by one into the merged
-// model. Its report and origin are added to `result`.
+// Community `record.community_id`'s other models in `workspace` (largest
+// first) each become an extra community, numbered after those in `models`,
+// if they registered at least `min_model_size` of its own images that no
+// larger model of it taking part did; it owns those images, which keep the
+// shape its mapper gave them. Its report and origin are added to `result`.
 void AddExtraCommunities(const CommunityWorkspace& workspace,
                          const CommunityRecord& record,
                          const int min_model_size,
@@ -122,9 +114,8 @@ void AddExtraCommunities(const CommunityWorkspace& workspace,
 }
 
 // The images of `image_ids` that are not in `taken_image_ids`.
-template <typename ImageIds>
 std::unordered_set<image_t> ImagesNotTaken(
-    const ImageIds& image_ids,
+    const std::vector<image_t>& image_ids,
     const std::unordered_set<image_t>& taken_image_ids) {
   std::unordered_set<image_t> left_image_ids;
   for (const image_t image_id : image_ids) {
@@ -148,14 +139,13 @@ bool CommunityMergerOptions::Check() const {
 }
 
 CommunityMerger::CommunityMerger(const CommunityMergerOptions& options,
-                               const CommunityPlan& plan,
-                               const CommunityWorkspace& workspace)
+                                 const CommunityPlan& plan,
+                                 const CommunityWorkspace& workspace)
     : options_(options), plan_(plan), workspace_(workspace) {
   THROW_CHECK(options_.Check());
 }
 
 void CommunityMerger::EstimateSimilarities() {
-
   // One connection for the view graph and the cross edges' matches.
   const std::shared_ptr<Database> database =
       Database::Open(options_.database_path);
@@ -188,14 +178,10 @@ void CommunityMerger::EstimateSimilarities() {
 
 // The communities' models as their stage left them in the workspace (none
 // for a community that registered nothing), the plan's first, then the extra
-// communities (AddExtraCommunities): where a community's mapper made several
-// models, each other one holding at least incremental_options.min_model_size
-// of the community's own images (that no larger model of it holds). With
-// their paths and reports.
+// communities (AddExtraCommunities), with their paths and reports.
 void CommunityMerger::ReadCommunityModels() {
   const int num_plan_communities = plan_.NumCommunities();
   models_.assign(num_plan_communities, nullptr);
-  model_paths_.clear();
   std::vector<CommunityRecord> records;
   result_.community_reports.assign(num_plan_communities,
                                    CommunityModelReport());
@@ -212,7 +198,6 @@ void CommunityMerger::ReadCommunityModels() {
       models_[c]->Read(model_paths_.back());
     }
   }
-  result_.extra_community_origins.clear();
   for (int c = 0; c < num_plan_communities; ++c) {
     if (models_[c]) {
       AddExtraCommunities(workspace_,
@@ -237,7 +222,6 @@ void CommunityMerger::AverageSimilarities() {
       similarities_.similarities;
   averaging_ = colmap::AverageSimilarities(
       averaged_communities, similarities, options_.similarity_averaging);
-  result_.num_kept_similarities = 0;
   for (size_t e = 0; e < similarities.size(); ++e) {
     const auto& report = averaging_.edges[e];
     result_.num_kept_similarities += report.kept ? 1 : 0;
@@ -259,17 +243,7 @@ void CommunityMerger::AverageSimilarities() {
               "with it in)");
   }
 
-  // A similarity the co-visibility check rejected, between communities the
-  // averaging joins through other links, is confirmed where it lies within
-  // the displacement bound of that placement, grown with the drift of the
-  // links between them by at most kMaxDriftFactor (link_confirmation.h): its
-  // image pairs then stay in the merged model and close the loop there.
-  constexpr double kMaxDriftFactor = 1.5;
-  false_pairs_ = ConfirmRejectedLinks(
-      similarities_,
-      averaging_,
-      options_.similarity_averaging.max_relative_displacement,
-      kMaxDriftFactor);
+  false_pairs_ = similarities_.false_pairs;
   if (!false_pairs_.empty()) {
     LOG(INFO) << StringPrintf(
         "%d image pairs between communities support only rejected "
@@ -278,25 +252,13 @@ void CommunityMerger::AverageSimilarities() {
   }
 }
 
-std::shared_ptr<Reconstruction> CommunityMerger::LeftModel(
-    const int c,
-    std::shared_ptr<Reconstruction> model,
-    const std::unordered_set<image_t>& taken_image_ids) const {
+std::shared_ptr<Reconstruction> CommunityMerger::OwnModel(
+    const int c, std::shared_ptr<Reconstruction> model) const {
   if (!model) {
     model = std::make_shared<Reconstruction>();
     model->Read(model_paths_[c]);
   }
-  return RestrictToImages(
-      ImagesNotTaken(communities_.own_image_ids[c], taken_image_ids),
-      std::move(model));
-}
-
-void CommunityMerger::KeepModel(
-    std::shared_ptr<Reconstruction> model,
-    std::unordered_set<image_t>* registered_image_ids) {
-  const std::vector<image_t> reg_image_ids = model->RegImageIds();
-  registered_image_ids->insert(reg_image_ids.begin(), reg_image_ids.end());
-  result_.models.push_back(std::move(model));
+  return RestrictToImages(communities_.own_image_ids[c], std::move(model));
 }
 
 void CommunityMerger::Solve() {
@@ -367,7 +329,7 @@ void CommunityMerger::JoinAndRefineParts() {
     }
     if (part_communities.size() == 1) {
       const int c = part_communities[0];
-      part_model.model = LeftModel(c, std::move(models_[c]), {});
+      part_model.model = OwnModel(c, std::move(models_[c]));
       part_models_.push_back(std::move(part_model));
       continue;
     }
@@ -384,7 +346,7 @@ void CommunityMerger::JoinAndRefineParts() {
       for (const int c : part_communities) {
         PartModel community_model;
         community_model.communities = {c};
-        community_model.model = LeftModel(c, /*model=*/nullptr, {});
+        community_model.model = OwnModel(c, /*model=*/nullptr);
         part_models_.push_back(std::move(community_model));
       }
     }
@@ -429,12 +391,8 @@ void CommunityMerger::RefinePart(
 void CommunityMerger::RegisterRemainingImagesOfParts() {
   std::unordered_set<image_t> registered_image_ids;
   for (PartModel& part_model : part_models_) {
-    std::unordered_set<image_t> kept_image_ids;
-    for (const image_t image_id : part_model.model->RegImageIds()) {
-      if (registered_image_ids.count(image_id) == 0) {
-        kept_image_ids.insert(image_id);
-      }
-    }
+    const std::unordered_set<image_t> kept_image_ids =
+        ImagesNotTaken(part_model.model->RegImageIds(), registered_image_ids);
     std::shared_ptr<Reconstruction> model =
         RestrictToImages(kept_image_ids, std::move(part_model.model));
     if (model->NumRegImages() < 2) {
@@ -467,9 +425,10 @@ void CommunityMerger::RegisterRemainingImagesOfParts() {
       model->ExtractColorsForAllImages(options_.image_path,
                                        options_.incremental_options.num_threads);
     }
-    KeepModel(std::move(model), &registered_image_ids);
+    const std::vector<image_t> reg_image_ids = model->RegImageIds();
+    registered_image_ids.insert(reg_image_ids.begin(), reg_image_ids.end());
+    result_.models.push_back(std::move(model));
   }
-  part_models_.clear();
   std::stable_sort(result_.models.begin(),
                    result_.models.end(),
                    [](const std::shared_ptr<Reconstruction>& a,

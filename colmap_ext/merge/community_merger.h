@@ -2,24 +2,13 @@
 // as their stage wrote them, into one model per part in one frame.
 //
 // Cui, Shen, Gao and Hu, "CSfM: Community-based Structure from Motion",
-// ICIP 2017, sections 3.3-3.4, in the stages of a global SfM pipeline
-// (COLMAP 4.1.1's GlobalMapper::Solve):
-//   1. pairwise similarities: a Sim3 between every two communities that
-//      view-graph edges join, from their co-visible points by RANSAC,
-//      checked against which images were matched (community_alignment.h);
-//   2. similarity averaging: L1 scale, L1RA rotation and L1 translation
-//      averaging place every community, world_from_community; links the
-//      averaging contradicts leave, and the communities joined by the kept
-//      ones form a part (similarity_averaging.h);
-//   3. global refinement: each part's communities transformed and joined,
-//      their corresponding points merged, the joined model adjusted under a
-//      robust loss and triangulated anew over all its images
-//      (global_refinement.h);
-//   4. registration: the images no community placed (and those of smaller
-//      parts that no link joins to it) registered by COLMAP's incremental
-//      mapper, which continues the merged model, and the last refinement.
-// A part that no link joins stays a model of its own, as COLMAP's
-// hierarchical mapper leaves it; no image is written in two models.
+// ICIP 2017, sections 3.3-3.4, in four stages after COLMAP 4.1.1's
+// GlobalMapper::Solve: 1. pairwise similarities (community_alignment.h),
+// 2. similarity averaging into parts (similarity_averaging.h), 3. global
+// refinement of each part and 4. registration of the images no community
+// placed (global_refinement.h). A part that no link joins stays a model of
+// its own; no image is in two models. docs/design.md, Merge stages 1-4,
+// gives the rules' reasons.
 #pragma once
 
 #include "colmap_ext/partition/view_graph.h"
@@ -79,9 +68,8 @@ struct CommunityMergerOptions {
   // Global similarity averaging and the links it keeps.
   SimilarityAveragingOptions similarity_averaging;
 
-  // The incremental mapper's options (the user's --Mapper.*): the global
-  // refinement's intrinsics and threads, and the registration of the
-  // remaining images with its adjustments.
+  // The user's --Mapper.*: the refinement's intrinsics and threads, and the
+  // registration of the remaining images.
   IncrementalPipelineOptions incremental_options;
 
   // Relative function tolerance at which the merged model's adjustments
@@ -175,16 +163,10 @@ class CommunityMerger {
   bool RegisterIntoPart(const std::unordered_set<std::string>& image_names,
                         std::shared_ptr<Reconstruction>* model) const;
 
-  // Community c's model restricted to its own images that no model in
-  // `taken_image_ids` registered: `model` (its copy in memory), or as its
-  // stage wrote it if null.
-  std::shared_ptr<Reconstruction> LeftModel(
-      int c,
-      std::shared_ptr<Reconstruction> model,
-      const std::unordered_set<image_t>& taken_image_ids) const;
-  // Adds a model to the result and its images to `registered_image_ids`.
-  void KeepModel(std::shared_ptr<Reconstruction> model,
-                 std::unordered_set<image_t>* registered_image_ids);
+  // Community c's model restricted to its own images: `model` (its copy in
+  // memory), or as its stage wrote it if null.
+  std::shared_ptr<Reconstruction> OwnModel(
+      int c, std::shared_ptr<Reconstruction> model) const;
   // JoinPart's steps: the images without a pair left out of the part, the
   // joined points that correspond.
   void LeaveOutUnpairedImages(

@@ -1,19 +1,15 @@
 // Refinement of a merged model over all its images, and registration of the
 // images that no community placed.
 //
-// The joined communities are each close to optimal, but where they meet
-// they are only as close as the averaged similarities put them, and their
-// tracks end at their borders. As GLOMAP refines the output of global
-// positioning (Pan et al., "Global Structure-from-Motion Revisited", ECCV
-// 2024; COLMAP 4.1.1's GlobalMapper), the merged model is first adjusted
-// under a robust (Huber) loss on the joined points, which pulls the
+// As GLOMAP refines global positioning (Pan et al., "Global
+// Structure-from-Motion Revisited", ECCV 2024; COLMAP 4.1.1's GlobalMapper),
+// the merged model is adjusted under a robust (Huber) loss, which pulls the
 // communities together, then triangulated anew over the whole
 // correspondence graph and refined again:
 //     min  sum_ij rho(|| pi(P_i, X_j) - x_ij ||^2).
-// The images left unregistered are then registered as COLMAP's incremental
-// mapper continues a model (IncrementalPipeline::ReconstructSubModel): one
-// by one, with local adjustments, and a last global refinement under the
-// user's --Mapper.* options.
+// The images left are then registered as COLMAP's incremental mapper
+// continues a model (IncrementalPipeline::ReconstructSubModel).
+// docs/design.md, Merge stages 3 and 4, gives the reasons.
 
 #pragma once
 

@@ -1,13 +1,10 @@
 // Joining community reconstructions into one model.
 //
-// CSfM (Cui et al., ICIP 2017), section 3.4: given the similarity
-// world_from_community of every community (similarity_averaging.h), its
-// cameras and points are transformed into the global frame,
+// CSfM (Cui et al., ICIP 2017), section 3.4: every community's cameras and
+// points are transformed by its world_from_community (similarity_averaging.h),
 //     X_g = s_i R_i X + T_i,  R_g = R R_i^T,  C_g = s_i R_i C + T_i,
-// and joined. Here the join keeps every community's tracks, then merges the
-// 3D points that the pairwise similarities found to correspond (their
-// inliers), so that the final bundle adjustment couples the communities
-// (global_refinement.h).
+// and joined; then the 3D points that the pairwise similarities found to
+// correspond are merged, so that the refinement couples the communities.
 
 #pragma once
 

@@ -15,6 +15,9 @@
 //      weights c_ij phi(r), phi(r) = sigma^2 / (r^2 + sigma^2)^2 the
 //      Geman-McClure weight of the residual angle r of each edge, refining
 //      what L1 found.
+// COLMAP's RotationEstimator solves the same over the images of a
+// Reconstruction, every pair alike; the merge's links need their own
+// confidences, so that a cycle's gap falls on its weakest link.
 
 #pragma once
 

@@ -1,11 +1,9 @@
 // The epipolar-geometry graph ("view graph") of a COLMAP database.
 //
 // CSfM (Cui et al., "CSfM: Community-based Structure from Motion", ICIP 2017),
-// section 2: images are vertices and verified image pairs are edges. An edge
-// exists where the two-view geometry of a pair has at least `min_num_matches`
-// verified inlier matches, the same rule by which COLMAP's incremental mapper
-// decides which pairs it uses. Images without any such edge are not part of
-// the graph, as the mapper cannot register them either.
+// section 2: images are vertices, and the pairs with at least
+// `min_num_matches` verified inlier matches (the incremental mapper's rule)
+// are edges; an image without an edge is not in the graph.
 
 #pragma once
 
@@ -20,8 +18,7 @@
 namespace colmap {
 
 // An undirected graph on vertices 0..num_vertices-1 with positive edge
-// weights. It is the input of community detection, which therefore needs no
-// database and can be tested on literal graphs.
+// weights: community detection's input, free of any database.
 struct WeightedGraph {
   struct Edge {
     int vertex1 = -1;
@@ -45,10 +42,8 @@ struct WeightedGraph {
 enum class ViewGraphEdgeWeight {
   // Every edge has weight 1 (A_ij = 1, as in the CSfM paper).
   kUnit,
-  // Every edge is weighted by its number of verified inlier matches. Where
-  // nearly every pair is verified (exhaustive matching of a small scene), the
-  // unit-weight graph is almost complete and shows no structure, while the
-  // inlier counts still do.
+  // Every edge weighted by its verified inlier matches (where nearly every
+  // pair is verified, the unit-weight graph shows no structure).
   kNumInliers,
 };
 
@@ -65,10 +60,9 @@ class ViewGraph {
     int num_inliers = 0;
   };
 
-  // Reads the verified pairs of the database, and its frames (SetFrames).
-  // Only the inlier counts are read, not the matches themselves, so this is
-  // cheap even for large databases. With `image_names`, only the pairs of two images named there
-  // (as the incremental mapper's image_names, --image_list_path).
+  // Reads the verified pairs' inlier counts (not the matches: cheap) and the
+  // frames (SetFrames); with `image_names`, only the pairs of two images
+  // named there (as the incremental mapper's, --image_list_path).
   static ViewGraph Read(
       const Database& database,
       int min_num_matches,
@@ -89,11 +83,9 @@ class ViewGraph {
   const std::vector<std::string>& ImageNames() const { return image_names_; }
   const std::vector<Edge>& Edges() const { return edges_; }
 
-  // Image pairs the matcher compared and found no inlier in (COLMAP's
-  // matchers write an empty two-view geometry for each): where there are
-  // any, a pair without a two-view geometry was never compared (sequential
-  // or vocabulary tree matching); where there are none (a database that
-  // stores verified pairs only), that cannot be told.
+  // Image pairs compared and found without inliers (an empty two-view
+  // geometry). Where there are any, a pair without a geometry was never
+  // compared; where there are none, that cannot be told.
   size_t NumFailedPairs() const { return num_failed_pairs_; }
 
   // The graph with the requested edge weights.

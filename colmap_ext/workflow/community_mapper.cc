@@ -237,7 +237,6 @@ bool CommunityMapperController::LoadPlan() {
 
 void CommunityMapperController::SummarizePlan() {
   summary_.max_modularity = plan_.max_modularity;
-  summary_.num_view_graph_components = plan_.num_view_graph_components;
   summary_.community_sizes.clear();
   for (const auto& community : plan_.communities) {
     summary_.community_sizes.push_back(
@@ -394,33 +393,24 @@ bool CommunityMapperController::Merge() {
     return false;
   }
   CommunityMerger merger(options_.MergeOptions(), plan_, workspace_);
-  merger.Solve();
-  const CommunityMergerResult& result = merger.Result();
-  for (const auto& [stage, seconds] : result.stage_seconds) {
-    EndPhase(stage, seconds);
-  }
-
-  summary_.num_view_graph_images = result.num_view_graph_images;
-  summary_.num_view_graph_edges = result.num_view_graph_edges;
-  summary_.community_reports = result.community_reports;
-  summary_.extra_community_origins = result.extra_community_origins;
-  summary_.community_of_image = result.community_of_image;
-  summary_.num_community_pairs = result.num_community_pairs;
-  summary_.num_estimated_similarities = result.num_estimated_similarities;
-  summary_.num_kept_similarities = result.num_kept_similarities;
+  merger.Solve();  // Logs each stage's seconds.
+  static_cast<CommunityMergerResult&>(summary_) = merger.Result();
+  summary_.phase_seconds.insert(summary_.phase_seconds.end(),
+                                summary_.stage_seconds.begin(),
+                                summary_.stage_seconds.end());
   summary_.peak_memory_mb = ReadProcessMemory().peak_resident_mb;
-  if (result.models.empty()) {
+  if (summary_.models.empty()) {
     LOG(ERROR) << "No community could be reconstructed: no model written.";
     return false;
   }
-  for (const auto& model : result.models) {
+  for (const auto& model : summary_.models) {
     summary_.model_num_registered.push_back(
         static_cast<int>(model->NumRegImages()));
     reconstruction_manager_->Get(reconstruction_manager_->Add()) = model;
   }
   try {
     WriteTextFileAtomically(
-        CommunityCamerasToPly(*result.models[0], summary_.community_of_image),
+        CommunityCamerasToPly(*summary_.models[0], summary_.community_of_image),
         workspace_.CommunitiesPlyPath());
   } catch (const std::exception& error) {
     LOG(WARNING) << "Could not write " << workspace_.CommunitiesPlyPath()
@@ -434,7 +424,7 @@ void CommunityMapperController::Run() { RunAllStages(); }
 bool CommunityMapperController::RunAllStages() {
   Timer run_timer;
   run_timer.Start();
-  summary_ = Summary();
+  summary_ = CommunityMapperSummary();
   Timer phase_timer;
 
   //////////////////////////////////////////////////////////////////////////////

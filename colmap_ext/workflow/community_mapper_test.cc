@@ -64,7 +64,7 @@ namespace colmap {
 namespace {
 
 TEST(CommunityMapperSummary, TextHasTheFiguresScriptsRead) {
-  CommunityMapperController::Summary summary;
+  CommunityMapperSummary summary;
   summary.num_view_graph_images = 128;
   summary.max_modularity = 0.5234;
   summary.community_sizes = {59, 39, 30};
@@ -75,7 +75,7 @@ TEST(CommunityMapperSummary, TextHasTheFiguresScriptsRead) {
   summary.phase_seconds = {{"Partition", 0.25},
                            {"Final bundle adjustment", 12.5}};
   summary.peak_memory_mb = 233.4;
-  const std::string text = CommunityMapperController::SummaryToText(summary);
+  const std::string text = CommunityMapperSummaryToText(summary);
   for (const std::string line :
        {"num_view_graph_images 128\n",
         "max_modularity 0.5234\n",

@@ -1,26 +1,16 @@
 // The output folder (OUT) of the community mapper and its stages.
 //
-// The community mapper runs in three stages, each reading only files that the
-// stage before it wrote, so that a killed run resumes where it stopped and a
-// cluster's scheduler can run the communities as separate jobs:
-//
+// Three stages, each reading only what the one before wrote, so that a
+// killed run resumes and a cluster's scheduler can run communities as jobs:
 //   1. partition:    OUT/plan.txt, OUT/communities.txt
-//   2. community K:  OUT/communities/K/ (its model; where its mapper made
-//                    several, the largest, and the others beside it as
-//                    OUT/communities/K.1/, K.2/, ...), then
-//                    OUT/communities/K.done (its record)
-//   3. merge:        OUT/0/, OUT/1/, ... (the merged models, largest first),
-//                    OUT/communities.ply, OUT/project.ini, OUT/summary.txt
-//                    (figures of the run, for scripts)
-//
-// Every file and model is written under a temporary name and renamed into
-// place (atomic_output.h), and a community's record is written only after
-// its model: a record means a complete community, whatever was killed when.
-//
-// The plan records what the later stages need and what they must agree on:
-// the database (path and a fingerprint of its cameras, images, rigs, frames
-// and verified pairs), the options in effect (as "key=value" lines), and every
-// community's images, its own and those it borrows from its neighbours.
+//   2. community K:  OUT/communities/K/ (its largest model; the others as
+//                    K.1/, K.2/, ...), then OUT/communities/K.done (its record)
+//   3. merge:        OUT/0/, OUT/1/, ... (largest first), OUT/communities.ply,
+//                    OUT/project.ini, OUT/summary.txt (figures, for scripts)
+// Every file and model is written atomically (atomic_output.h), a record
+// after its model. The plan holds the database (path and fingerprint), the
+// options in effect and every community's own and borrowed images.
+// docs/design.md, Outputs and workflow, gives the reasons.
 
 #pragma once
 
@@ -100,7 +90,7 @@ struct CommunityPlan {
   // "key=value" lines of the options that shape the result.
   std::string options;
   std::vector<Community> communities;
-  // The partition's figures, for the summary of a run that reuses the plan.
+  // The partition's figures, kept for a run that reuses the plan.
   double max_modularity = 0.0;
   int num_view_graph_components = 0;
 
