@@ -174,6 +174,12 @@ void CommunityMerger::EstimateSimilarities() {
       options_.incremental_options.num_threads);
   result_.num_estimated_similarities =
       static_cast<int>(similarities_.similarities.size());
+  if (!similarities_.false_pairs.empty()) {
+    LOG(INFO) << StringPrintf(
+        "%d image pairs between communities support only rejected "
+        "transforms: the merged models leave them out.",
+        static_cast<int>(similarities_.false_pairs.size()));
+  }
 }
 
 // The communities' models as their stage left them in the workspace (none
@@ -241,14 +247,6 @@ void CommunityMerger::AverageSimilarities() {
               "models registered do not confirm it)"
             : "dropped (the displacement of the averaging that dropped it, "
               "with it in)");
-  }
-
-  false_pairs_ = similarities_.false_pairs;
-  if (!false_pairs_.empty()) {
-    LOG(INFO) << StringPrintf(
-        "%d image pairs between communities support only rejected "
-        "transforms: the merged models leave them out.",
-        static_cast<int>(false_pairs_.size()));
   }
 }
 
@@ -484,7 +482,8 @@ void CommunityMerger::LeaveOutUnpairedImages(
     const image_t image_id2 = view_graph_->ImageIds()[edge.vertex2];
     if (part_image_names.count(view_graph_->ImageNames()[edge.vertex1]) &&
         part_image_names.count(view_graph_->ImageNames()[edge.vertex2]) &&
-        !false_pairs_.count(ImagePairToPairId(image_id1, image_id2))) {
+        !similarities_.false_pairs.count(
+            ImagePairToPairId(image_id1, image_id2))) {
       connected_image_ids.insert(image_id1);
       connected_image_ids.insert(image_id2);
     }
@@ -554,8 +553,8 @@ std::shared_ptr<DatabaseCache> CommunityMerger::LoadPartCorrespondences(
         *database,
         database_cache_options,
         [this](const image_t image_id1, const image_t image_id2) {
-          return false_pairs_.count(ImagePairToPairId(image_id1, image_id2)) ==
-                 0;
+          return similarities_.false_pairs.count(
+                     ImagePairToPairId(image_id1, image_id2)) == 0;
         });
   }
   // Building the correspondence graph grows a vector per keypoint and

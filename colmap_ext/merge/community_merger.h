@@ -195,12 +195,11 @@ class CommunityMerger {
   std::vector<std::shared_ptr<Reconstruction>> models_;
   std::vector<std::string> model_paths_;
   CrossEdges cross_edges_;
+  // The similarities, and the image pairs stages 3 and 4 leave out.
   CommunitySimilarities similarities_;
 
-  // Stage 2: the placement and links kept, and the image pairs the
-  // refinement leaves out.
+  // Stage 2: the placement and links kept.
   SimilarityAveragingResult averaging_;
-  std::unordered_set<image_pair_t> false_pairs_;
 
   // Stage 3: the parts' models, largest part first.
   std::vector<PartModel> part_models_;

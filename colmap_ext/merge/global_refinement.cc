@@ -20,9 +20,9 @@ GlobalMapperOptions MergedModelRefinementOptions(
   ba.refine_principal_point = mapper_options.ba_refine_principal_point;
   ba.refine_extra_params = mapper_options.ba_refine_extra_params;
   if (ba.ceres) {
+    ba.ceres->solver_options.function_tolerance = function_tolerance;
     // On the CPU, as the incremental mapper's adjustments (the global
     // mapper's default asks for the GPU).
-    ba.ceres->solver_options.function_tolerance = function_tolerance;
     ba.ceres->use_gpu = mapper_options.ba_use_gpu;
     ba.ceres->gpu_index = mapper_options.ba_gpu_index;
   }

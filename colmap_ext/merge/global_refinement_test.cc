@@ -41,7 +41,7 @@ struct RefinementScene {
 
 // The merged model's adjustments stop at the tolerance given, and refine
 // the intrinsics the user refines.
-TEST(MergedModelRefinementOptions, FollowTheMappersGlobalAdjustment) {
+TEST(MergedModelRefinementOptions, StopAtTheToleranceAndRefineAsTheUser) {
   IncrementalPipelineOptions mapper_options;
   mapper_options.ba_refine_focal_length = false;
   const GlobalMapperOptions options =
