@@ -61,7 +61,7 @@ std::vector<CommunityMapperOption> CommunityMapperOptionTable(
        &merge.skip_global_refinement,
        "the merge's stage 3 off: each part's joined model goes to the "
        "registration as the similarity averaging placed it, without its "
-       "robust adjustment and retriangulation"},
+       "retriangulation and robust adjustment"},
       {"skip_registration",
        &merge.skip_registration,
        "the merge's stage 4 off: the images no community registered stay "

@@ -34,15 +34,6 @@ bool RefineMergedModel(const GlobalMapperOptions& options,
                        std::shared_ptr<Reconstruction> reconstruction) {
   GlobalMapper mapper(std::move(database_cache));
   mapper.BeginReconstruction(reconstruction);
-  if (reconstruction->NumPoints3D() > 0 &&
-      !mapper.IterativeBundleAdjustment(options.BundleAdjustment(),
-                                        options.max_normalized_reproj_error,
-                                        options.min_tri_angle_deg,
-                                        options.ba_num_iterations,
-                                        options.ba_skip_fixed_rotation_stage,
-                                        options.ba_skip_joint_optimization_stage)) {
-    return false;
-  }
   return mapper.IterativeRetriangulateAndRefine(
       options.Retriangulation(),
       options.BundleAdjustment(),

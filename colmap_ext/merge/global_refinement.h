@@ -1,11 +1,10 @@
 // Refinement of a merged model over all its images, and registration of the
 // images that no community placed.
 //
-// As GLOMAP refines global positioning (Pan et al., "Global
-// Structure-from-Motion Revisited", ECCV 2024; COLMAP 4.1.1's GlobalMapper),
-// the merged model is adjusted under a robust (Huber) loss, which pulls the
-// communities together, then triangulated anew over the whole
-// correspondence graph and refined again:
+// As GLOMAP ends (Pan et al., "Global Structure-from-Motion Revisited",
+// ECCV 2024; COLMAP 4.1.1's GlobalMapper), the merged model is triangulated
+// anew over the whole correspondence graph, so that tracks cross the
+// communities' borders, and adjusted under a robust (Huber) loss:
 //     min  sum_ij rho(|| pi(P_i, X_j) - x_ij ||^2).
 // The images left are then registered as COLMAP's incremental mapper
 // continues a model (IncrementalPipeline::ReconstructSubModel).
@@ -22,17 +21,16 @@
 
 namespace colmap {
 
-// The robust adjustment and the retriangulation are COLMAP's GlobalMapper's
-// (IterativeBundleAdjustment, IterativeRetriangulateAndRefine) with its
-// defaults; the intrinsics and rigs they refine follow --Mapper.ba_refine_*,
+// The retriangulation and adjustment are COLMAP's GlobalMapper's
+// (IterativeRetriangulateAndRefine) with its defaults; the intrinsics and rigs they refine follow --Mapper.ba_refine_*,
 // and their adjustments stop at `function_tolerance`.
 GlobalMapperOptions MergedModelRefinementOptions(
     const IncrementalPipelineOptions& mapper_options,
     double function_tolerance);
 
 // Refines `reconstruction` (its registered images, on `database_cache`'s
-// correspondences): robust adjustment on the joined points, then every point
-// triangulated anew and refined. Returns false where an adjustment failed.
+// correspondences): every point triangulated anew, then the iterative
+// global refinement. Returns false where an adjustment failed.
 bool RefineMergedModel(const GlobalMapperOptions& options,
                        std::shared_ptr<const DatabaseCache> database_cache,
                        std::shared_ptr<Reconstruction> reconstruction);
