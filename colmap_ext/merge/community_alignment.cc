@@ -63,7 +63,6 @@ RelativeSimilarity ToRelativeSimilarity(const int community1,
   relative.second_from_first = estimate.second_from_first;
   relative.points1 = estimate.inlier_points1;
   relative.points2 = estimate.inlier_points2;
-  relative.point3D_ids = estimate.inlier_point3D_ids;
   relative.num_inliers = estimate.num_inliers;
   return relative;
 }

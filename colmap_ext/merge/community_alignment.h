@@ -42,8 +42,7 @@ CrossEdges GroupCrossEdges(
     const std::unordered_map<image_t, int>& community_of_image);
 
 struct CommunitySimilarities {
-  // One per community pair with a usable similarity (with its inliers'
-  // point ids).
+  // One per community pair with a usable similarity.
   std::vector<RelativeSimilarity> similarities;
   // Cross pairs whose matches mostly support rejected transforms.
   std::unordered_set<image_pair_t> false_pairs;

@@ -502,38 +502,6 @@ void CommunityMerger::LeaveOutUnpairedImages(
   }
 }
 
-// The pairs of joined points (merged ids) that the kept similarities of
-// the part found to correspond, `point3D_ids` mapping each community's
-// point ids (by its index in the part) to the merged model's.
-std::vector<std::pair<point3D_t, point3D_t>>
-CommunityMerger::PartCorrespondingPoints(
-    const std::vector<int>& part_communities,
-    const std::map<int, size_t>& index_in_part,
-    const std::vector<std::unordered_map<point3D_t, point3D_t>>& point3D_ids)
-    const {
-  std::vector<std::pair<point3D_t, point3D_t>> corresponding_points;
-  for (size_t e = 0; e < similarities_.similarities.size(); ++e) {
-    if (!averaging_.edges[e].kept ||
-        averaging_
-                .part_of_community[similarities_.similarities[e].community1] !=
-            averaging_.part_of_community[part_communities[0]]) {
-      continue;
-    }
-    const auto& ids1 =
-        point3D_ids[index_in_part.at(similarities_.similarities[e].community1)];
-    const auto& ids2 =
-        point3D_ids[index_in_part.at(similarities_.similarities[e].community2)];
-    for (const auto& pair : similarities_.similarities[e].point3D_ids) {
-      const auto it1 = ids1.find(pair.first);
-      const auto it2 = ids2.find(pair.second);
-      if (it1 != ids1.end() && it2 != ids2.end()) {
-        corresponding_points.emplace_back(it1->second, it2->second);
-      }
-    }
-  }
-  return corresponding_points;
-}
-
 // The correspondences of `image_names`, without the false pairs; every
 // image registered in `model` must have some.
 std::shared_ptr<DatabaseCache> CommunityMerger::LoadPartCorrespondences(
@@ -571,8 +539,7 @@ std::shared_ptr<DatabaseCache> CommunityMerger::LoadPartCorrespondences(
 }
 
 // Joins the communities of one part (connected by kept similarities) into
-// one model in the averaged frame, each with its own images, and merges the
-// points the part's similarities found to correspond.
+// one model in the averaged frame, each with its own images.
 std::shared_ptr<Reconstruction> CommunityMerger::JoinPart(
     const std::vector<int>& part_communities) {
   LOG(INFO) << "Joining communities" << [&] {
@@ -584,9 +551,7 @@ std::shared_ptr<Reconstruction> CommunityMerger::JoinPart(
   std::vector<Sim3d> world_from_community;
   std::vector<std::unordered_set<image_t>> owned_image_ids;
   std::unordered_set<std::string> part_image_names;
-  std::map<int, size_t> index_in_part;
   for (const int c : part_communities) {
-    index_in_part.emplace(c, part_models.size());
     part_models.push_back(models_[c].get());
     world_from_community.push_back(averaging_.world_from_community[c]);
     owned_image_ids.push_back(communities_.own_image_ids[c]);
@@ -596,21 +561,12 @@ std::shared_ptr<Reconstruction> CommunityMerger::JoinPart(
   }
   LeaveOutUnpairedImages(part_image_names, &owned_image_ids);
   auto merged = std::make_shared<Reconstruction>();
-  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
-  JoinReconstructions(part_models,
-                      world_from_community,
-                      owned_image_ids,
-                      merged.get(),
-                      &point3D_ids);
-  const size_t num_merged_points = MergeCorrespondingPoints(
-      PartCorrespondingPoints(part_communities, index_in_part, point3D_ids),
-      merged.get());
+  JoinReconstructions(
+      part_models, world_from_community, owned_image_ids, merged.get());
   merged->UpdatePoint3DErrors();
-  LOG(INFO) << StringPrintf(
-      "Joined %d images and %d points; merged %d corresponding points",
-      static_cast<int>(merged->NumRegImages()),
-      static_cast<int>(merged->NumPoints3D()),
-      static_cast<int>(num_merged_points));
+  LOG(INFO) << StringPrintf("Joined %d images and %d points",
+                            static_cast<int>(merged->NumRegImages()),
+                            static_cast<int>(merged->NumPoints3D()));
   LogMemory("joining the models");
   return merged;
 }

@@ -22,7 +22,6 @@
 #include "colmap/scene/database_cache.h"
 #include "colmap/scene/reconstruction.h"
 
-#include <map>
 #include <memory>
 #include <string>
 #include <unordered_map>
@@ -76,8 +75,8 @@ struct CommunityMergerOptions {
   // (stage 3) stop; the registration's follow incremental_options.
   double refinement_function_tolerance = 1e-6;
 
-  // Stage 3 off: each part's joined model, its corresponding points merged,
-  // goes to the registration as the averaging placed it.
+  // Stage 3 off: each part's joined model goes to the registration as the
+  // averaging placed it.
   bool skip_global_refinement = false;
   // Stage 4 off: the images no community registered stay unregistered, and
   // the parts no link joins stay models of their own.
@@ -167,16 +166,10 @@ class CommunityMerger {
   // memory), or as its stage wrote it if null.
   std::shared_ptr<Reconstruction> OwnModel(
       int c, std::shared_ptr<Reconstruction> model) const;
-  // JoinPart's steps: the images without a pair left out of the part, the
-  // joined points that correspond.
+  // JoinPart's step: the images without a pair left out of the part.
   void LeaveOutUnpairedImages(
       const std::unordered_set<std::string>& part_image_names,
       std::vector<std::unordered_set<image_t>>* owned_image_ids) const;
-  std::vector<std::pair<point3D_t, point3D_t>> PartCorrespondingPoints(
-      const std::vector<int>& part_communities,
-      const std::map<int, size_t>& index_in_part,
-      const std::vector<std::unordered_map<point3D_t, point3D_t>>& point3D_ids)
-      const;
   // The correspondences of `image_names`, without the false pairs.
   std::shared_ptr<DatabaseCache> LoadPartCorrespondences(
       const std::unordered_set<std::string>& image_names,

@@ -196,12 +196,10 @@ void JoinReconstructions(
     const std::vector<Reconstruction*>& reconstructions,
     const std::vector<Sim3d>& world_from_reconstruction,
     const std::vector<std::unordered_set<image_t>>& owned_image_ids,
-    Reconstruction* merged,
-    std::vector<std::unordered_map<point3D_t, point3D_t>>* point3D_ids) {
+    Reconstruction* merged) {
   THROW_CHECK_EQ(reconstructions.size(), world_from_reconstruction.size());
   THROW_CHECK_EQ(reconstructions.size(), owned_image_ids.size());
   THROW_CHECK_NOTNULL(merged);
-  THROW_CHECK_NOTNULL(point3D_ids);
   THROW_CHECK_EQ(merged->NumImages(), 0);
 
   for (size_t r = 0; r < reconstructions.size(); ++r) {
@@ -213,11 +211,8 @@ void JoinReconstructions(
 
   // Each point keeps its observations in the frames its reconstruction
   // gives.
-  point3D_ids->assign(reconstructions.size(), {});
   for (size_t r = 0; r < reconstructions.size(); ++r) {
     const Reconstruction& reconstruction = *reconstructions[r];
-    auto& ids = (*point3D_ids)[r];
-    ids.reserve(reconstruction.NumPoints3D());
     for (const auto& [point3D_id, point3D] : reconstruction.Points3D()) {
       Track track;
       for (const TrackElement& track_el : point3D.track.Elements()) {
@@ -229,47 +224,9 @@ void JoinReconstructions(
       if (track.Length() == 0) {
         continue;
       }
-      ids.emplace(
-          point3D_id,
-          merged->AddPoint3D(point3D.xyz, std::move(track), point3D.color));
+      merged->AddPoint3D(point3D.xyz, std::move(track), point3D.color);
     }
   }
-}
-
-size_t MergeCorrespondingPoints(
-    const std::vector<std::pair<point3D_t, point3D_t>>& point3D_pairs,
-    Reconstruction* reconstruction) {
-  std::unordered_set<point3D_t> merged_ids;
-  size_t num_merged = 0;
-  for (const auto& pair : point3D_pairs) {
-    if (merged_ids.count(pair.first) > 0 || merged_ids.count(pair.second) > 0 ||
-        !reconstruction->ExistsPoint3D(pair.first) ||
-        !reconstruction->ExistsPoint3D(pair.second)) {
-      continue;
-    }
-    std::unordered_set<image_t> images1;
-    for (const auto& track_el :
-         reconstruction->Point3D(pair.first).track.Elements()) {
-      images1.insert(track_el.image_id);
-    }
-    bool share_image = false;
-    for (const auto& track_el :
-         reconstruction->Point3D(pair.second).track.Elements()) {
-      if (images1.count(track_el.image_id) > 0) {
-        share_image = true;
-        break;
-      }
-    }
-    if (share_image) {
-      continue;
-    }
-    merged_ids.insert(pair.first);
-    merged_ids.insert(pair.second);
-    reconstruction->MergePoints3D(pair.first, pair.second);
-    ++num_merged;
-  }
-  DeletePointsWithShortTracks(reconstruction);
-  return num_merged;
 }
 
 std::shared_ptr<Reconstruction> RestrictToImages(
@@ -284,12 +241,8 @@ std::shared_ptr<Reconstruction> RestrictToImages(
     return reconstruction;
   }
   auto restricted = std::make_shared<Reconstruction>();
-  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
-  JoinReconstructions({reconstruction.get()},
-                      {Sim3d()},
-                      {image_ids},
-                      restricted.get(),
-                      &point3D_ids);
+  JoinReconstructions(
+      {reconstruction.get()}, {Sim3d()}, {image_ids}, restricted.get());
   DeletePointsWithShortTracks(restricted.get());
   return restricted;
 }

@@ -3,8 +3,8 @@
 // CSfM (Cui et al., ICIP 2017), section 3.4: every community's cameras and
 // points are transformed by its world_from_community (similarity_averaging.h),
 //     X_g = s_i R_i X + T_i,  R_g = R R_i^T,  C_g = s_i R_i C + T_i,
-// and joined; then the 3D points that the pairwise similarities found to
-// correspond are merged, so that the refinement couples the communities.
+// and joined. The tracks across communities are the refinement's
+// retriangulation's (global_refinement.h).
 
 #pragma once
 
@@ -12,9 +12,7 @@
 #include "colmap/scene/reconstruction.h"
 
 #include <memory>
-#include <unordered_map>
 #include <unordered_set>
-#include <utility>
 #include <vector>
 
 namespace colmap {
@@ -29,23 +27,13 @@ namespace colmap {
 // observations in the frame's images are dropped, and points left without
 // observations too. A camera (rig) used by several reconstructions takes the
 // parameters of the one owning the most images (frames) with it. Ids of
-// rigs, cameras, frames and images are kept. `point3D_ids` receives, per
-// reconstruction, the new id of each of its points that was kept. The
-// reconstructions are transformed in place.
+// rigs, cameras, frames and images are kept. The reconstructions are
+// transformed in place.
 void JoinReconstructions(
     const std::vector<Reconstruction*>& reconstructions,
     const std::vector<Sim3d>& world_from_reconstruction,
     const std::vector<std::unordered_set<image_t>>& owned_image_ids,
-    Reconstruction* merged,
-    std::vector<std::unordered_map<point3D_t, point3D_t>>* point3D_ids);
-
-// Merges pairs of corresponding 3D points (ids of `reconstruction`) into
-// single tracks. A pair is skipped if one of its points was merged already
-// or if both are observed in a common image. Afterwards, points observed
-// fewer than twice are deleted. Returns the number of merges.
-size_t MergeCorrespondingPoints(
-    const std::vector<std::pair<point3D_t, point3D_t>>& point3D_pairs,
-    Reconstruction* reconstruction);
+    Reconstruction* merged);
 
 // The reconstruction without the registered frames that have none of their
 // images in `image_ids` (e.g. a community model without the images it

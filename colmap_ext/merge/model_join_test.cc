@@ -63,15 +63,12 @@ class JoinReconstructionsTest : public ::testing::Test {
   // The two communities' models joined in the world frame.
   void Join(Reconstruction* model1,
             Reconstruction* model2,
-            Reconstruction* merged,
-            std::vector<std::unordered_map<point3D_t, point3D_t>>* point3D_ids)
-      const {
+            Reconstruction* merged) const {
     JoinReconstructions(
         {model1, model2},
         {Inverse(community_from_world_[0]), Inverse(community_from_world_[1])},
         {owned1_, owned2_},
-        merged,
-        point3D_ids);
+        merged);
   }
 
   SyntheticScene scene_;
@@ -90,8 +87,7 @@ TEST_F(JoinReconstructionsTest, RecoversTheScene) {
   model2.Camera(camera_id).params[0] *= 1.01;
 
   Reconstruction merged;
-  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
-  Join(&model1, &model2, &merged, &point3D_ids);
+  Join(&model1, &model2, &merged);
 
   EXPECT_EQ(merged.NumRegImages(), scene_.ground_truth.NumRegImages());
   // Every image's pose is the truth's.
@@ -108,56 +104,27 @@ TEST_F(JoinReconstructionsTest, RecoversTheScene) {
               1e-9);
     EXPECT_EQ(image.NumPoints2D(), truth.NumPoints2D());
   }
-  // Points are in the world frame and observed only in owned images.
-  for (size_t r = 0; r < 2; ++r) {
-    const Reconstruction& model = r == 0 ? model1 : model2;
-    const auto& owned = r == 0 ? owned1_ : owned2_;
-    for (const auto& old_and_new : point3D_ids[r]) {
-      const Point3D& point3D = merged.Point3D(old_and_new.second);
-      const Eigen::Vector3d& truth_xyz =
-          scene_.ground_truth.Point3D(old_and_new.first).xyz;
-      EXPECT_LT((point3D.xyz - truth_xyz).norm(), 1e-6);
-      for (const auto& track_el : point3D.track.Elements()) {
-        EXPECT_EQ(owned.count(track_el.image_id), 1);
-      }
-      EXPECT_LE(point3D.track.Length(),
-                model.Point3D(old_and_new.first).track.Length());
+  // Points are in the world frame, each observed in the images one
+  // community owns.
+  EXPECT_GT(merged.NumPoints3D(), 0);
+  for (const auto& [point3D_id, point3D] : merged.Points3D()) {
+    const TrackElement& first = point3D.track.Element(0);
+    const Eigen::Vector3d& truth_xyz =
+        scene_.ground_truth
+            .Point3D(scene_.ground_truth.Image(first.image_id)
+                         .Point2D(first.point2D_idx)
+                         .point3D_id)
+            .xyz;
+    EXPECT_LT((point3D.xyz - truth_xyz).norm(), 1e-6);
+    const auto& owned = owned1_.count(first.image_id) ? owned1_ : owned2_;
+    for (const auto& track_el : point3D.track.Elements()) {
+      EXPECT_EQ(owned.count(track_el.image_id), 1);
     }
   }
   // The shared camera comes from the community owning more of its images.
   const size_t expected_source = owned1_.size() >= owned2_.size() ? 0 : 1;
   EXPECT_EQ(merged.Camera(camera_id).params,
             (expected_source == 0 ? model1 : model2).Camera(camera_id).params);
-}
-
-TEST_F(JoinReconstructionsTest, MergesCorrespondingPoints) {
-  Reconstruction model1 = Community(0);
-  Reconstruction model2 = Community(1);
-  Reconstruction merged;
-  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
-  Join(&model1, &model2, &merged, &point3D_ids);
-
-  // The two communities' copies of the same ground-truth point correspond.
-  std::vector<std::pair<point3D_t, point3D_t>> pairs;
-  for (const auto& old_and_new : point3D_ids[0]) {
-    const auto it = point3D_ids[1].find(old_and_new.first);
-    if (it != point3D_ids[1].end()) {
-      pairs.emplace_back(old_and_new.second, it->second);
-    }
-  }
-  ASSERT_GT(pairs.size(), 20);
-  const size_t num_points_before = merged.NumPoints3D();
-
-  const size_t num_merged = MergeCorrespondingPoints(pairs, &merged);
-
-  EXPECT_EQ(num_merged, pairs.size());
-  EXPECT_LE(merged.NumPoints3D(), num_points_before - num_merged);
-  for (const auto& point3D : merged.Points3D()) {
-    EXPECT_GE(point3D.second.track.Length(), 2);
-  }
-  // Merged points keep the truth's position.
-  merged.UpdatePoint3DErrors();
-  EXPECT_LT(merged.ComputeMeanReprojectionError(), 1e-6);
 }
 
 TEST_F(JoinReconstructionsTest, RestrictToImagesDropsBorrowedImages) {
@@ -218,12 +185,8 @@ TEST(JoinReconstructions, KeepsAFramesImagesTogether) {
   }
 
   Reconstruction merged;
-  std::vector<std::unordered_map<point3D_t, point3D_t>> point3D_ids;
-  JoinReconstructions({&model1, &model2},
-                      {Sim3d(), Sim3d()},
-                      {owned1, owned2},
-                      &merged,
-                      &point3D_ids);
+  JoinReconstructions(
+      {&model1, &model2}, {Sim3d(), Sim3d()}, {owned1, owned2}, &merged);
 
   EXPECT_TRUE(merged.IsValid());
   EXPECT_EQ(merged.NumRegFrames(), truth.NumRegFrames());
@@ -238,17 +201,19 @@ TEST(JoinReconstructions, KeepsAFramesImagesTogether) {
   }
   const rig_t rig_id = truth.Frame(split_frame_id).RigId();
   EXPECT_EQ(merged.Rig(rig_id), truth.Rig(rig_id));
-  // The frame's observations are model 1's, the others model 2's.
-  for (size_t r = 0; r < 2; ++r) {
-    EXPECT_FALSE(point3D_ids[r].empty());
-    for (const auto& [old_point3D_id, point3D_id] : point3D_ids[r]) {
-      for (const TrackElement& track_el :
-           merged.Point3D(point3D_id).track.Elements()) {
-        EXPECT_EQ(merged.Image(track_el.image_id).FrameId() == split_frame_id,
-                  r == 0);
-      }
+  // The frame's observations are model 1's, the others model 2's: no
+  // point is observed both in the frame and outside it.
+  std::set<bool> in_frame_of_points;
+  for (const auto& [point3D_id, point3D] : merged.Points3D()) {
+    std::set<bool> in_frame;
+    for (const TrackElement& track_el : point3D.track.Elements()) {
+      in_frame.insert(merged.Image(track_el.image_id).FrameId() ==
+                      split_frame_id);
     }
+    EXPECT_EQ(in_frame.size(), 1);
+    in_frame_of_points.insert(in_frame.begin(), in_frame.end());
   }
+  EXPECT_EQ(in_frame_of_points.size(), 2);
 }
 
 }  // namespace

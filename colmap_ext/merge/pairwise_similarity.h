@@ -133,11 +133,9 @@ struct RelativeSimilarity {
   int community2 = -1;
   // X2 = s R X1 + t.
   Sim3d second_from_first;
-  // Inlier correspondences (X1, X2), at least one, and their 3D point ids
-  // in the two models (for the merge; the averaging does not use them).
+  // Inlier correspondences (X1, X2), at least one.
   std::vector<Eigen::Vector3d> points1;
   std::vector<Eigen::Vector3d> points2;
-  std::vector<std::pair<point3D_t, point3D_t>> point3D_ids;
   // Support (number of inlier correspondences).
   double num_inliers = 0;
   // CountSupportingImages of its inlier points (0: not known, the
