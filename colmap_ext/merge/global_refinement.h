@@ -22,8 +22,9 @@
 namespace colmap {
 
 // The retriangulation and adjustment are COLMAP's GlobalMapper's
-// (IterativeRetriangulateAndRefine) with its defaults; the intrinsics and rigs they refine follow --Mapper.ba_refine_*,
-// and their adjustments stop at `function_tolerance`.
+// (IterativeRetriangulateAndRefine) with its defaults; the intrinsics and
+// rigs they refine follow --Mapper.ba_refine_*, and their adjustments stop
+// at `function_tolerance`.
 GlobalMapperOptions MergedModelRefinementOptions(
     const IncrementalPipelineOptions& mapper_options,
     double function_tolerance);

@@ -4,6 +4,7 @@
 #include "colmap_ext/testing/synthetic_scene.h"
 #include "colmap_ext/testing/testing.h"
 
+#include "colmap/geometry/pose.h"
 #include "colmap/math/math.h"
 #include "colmap/scene/database.h"
 
@@ -98,37 +99,26 @@ TEST(RefineMergedModel, JoinsTheCommunitiesTracks) {
       EvaluateModel(*refined_truth, scene.scene.ground_truth);
 
   auto model = std::make_shared<Reconstruction>(scene.scene.ground_truth);
-  for (const point3D_t point3D_id : model->Point3DIds()) {
-    if (!model->ExistsPoint3D(point3D_id)) {
-      continue;
-    }
-    const std::vector<TrackElement> elements =
-        model->Point3D(point3D_id).track.Elements();
-    for (const TrackElement& element : elements) {
-      if (model->ExistsPoint3D(point3D_id) &&
-          InSecondCommunity(scene, element.image_id)) {
-        model->DeleteObservation(element.image_id, element.point2D_idx);
-      }
+  std::set<image_t> second_image_ids;
+  for (const image_t image_id : model->RegImageIds()) {
+    if (InSecondCommunity(scene, image_id)) {
+      second_image_ids.insert(image_id);
     }
   }
+  // Each community with its own copy of the points, none across ...
+  MoveImagesWithTheirPoints(
+      second_image_ids, Eigen::Vector3d::Zero(), model.get());
   ASSERT_EQ(NumPointsAcross(scene, *model), 0);
+  // ... and the second one placed a little off.
   const double extent = EvaluateModel(*model, *model).extent;
   const Sim3d offset(
       1.003,
       Eigen::Quaterniond(Eigen::AngleAxisd(
           DegToRad(0.15), Eigen::Vector3d(1, 1, 0).normalized())),
       Eigen::Vector3d(0.003 * extent, 0, 0));
-  for (const frame_t frame_id : model->RegFrameIds()) {
-    Frame& frame = model->Frame(frame_id);
-    const Image& image = model->Image(frame.DataIds().begin()->id);
-    if (!InSecondCommunity(scene, image.ImageId())) {
-      continue;
-    }
-    const Eigen::Vector3d center = offset * image.ProjectionCenter();
-    Rigid3d& rig_from_world = frame.RigFromWorld();
-    rig_from_world.rotation() =
-        rig_from_world.rotation() * offset.rotation().inverse();
-    rig_from_world.translation() = -(rig_from_world.rotation() * center);
+  for (const image_t image_id : second_image_ids) {
+    Frame& frame = model->Frame(model->Image(image_id).FrameId());
+    frame.SetRigFromWorld(TransformCameraWorld(offset, frame.RigFromWorld()));
   }
 
   ASSERT_TRUE(RefineMergedModel(options, scene.database_cache, model));
