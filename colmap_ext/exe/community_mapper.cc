@@ -1,7 +1,6 @@
 #include "colmap_ext/exe/community_mapper.h"
 
 #include "colmap_ext/exe/community_mapper_input.h"
-#include "colmap_ext/exe/community_mapper_options.h"
 #include "colmap_ext/workflow/community_workspace.h"
 #include "colmap_ext/workflow/atomic_output.h"
 #include "colmap_ext/workflow/database_retry.h"
@@ -15,7 +14,6 @@
 #include "colmap/util/logging.h"
 
 #include <filesystem>
-#include <set>
 
 namespace colmap {
 namespace {
@@ -41,9 +39,9 @@ bool PrepareWorkspace(const CommunityMapperCommand& command,
                       const CommunityWorkspace& workspace,
                       OutputLock* lock) {
   const bool has_plan = ExistsFile(workspace.PlanPath());
-  if ((command.stage == CommunityMapperStage::kCommunity ||
-       command.stage == CommunityMapperStage::kMerge) &&
-      !has_plan) {
+  const bool later_stage = command.stage == CommunityMapperStage::kCommunity ||
+                           command.stage == CommunityMapperStage::kMerge;
+  if (later_stage && !has_plan) {
     LOG(ERROR) << workspace.PlanPath()
                << " does not exist: run `colmap community_partitioner` with "
                   "this --output_path first.";
@@ -58,8 +56,7 @@ bool PrepareWorkspace(const CommunityMapperCommand& command,
     LOG(ERROR) << problem;
     return false;
   }
-  if (command.stage == CommunityMapperStage::kCommunity ||
-      command.stage == CommunityMapperStage::kMerge) {
+  if (later_stage) {
     return true;
   }
   if (command.options.overwrite) {
@@ -200,45 +197,6 @@ std::vector<std::string> WriteOutputs(
               " (figures of the run: phases, memory, models)"};
 }
 
-}  // namespace
-
-bool RunCommunityMapperImpl(const CommunityMapperCommand& command) {
-  CommunityMapperController::Options options;
-  const CommunityWorkspace workspace(command.options.mapper.output_path);
-  OutputLock lock;
-  if (!ControllerOptions(command, &options) ||
-      !PrepareWorkspace(command, workspace, &lock)) {
-    return false;
-  }
-  if (command.stage == CommunityMapperStage::kAll ||
-      command.stage == CommunityMapperStage::kMerge) {
-    CheckImagePath(options.image_path);
-  }
-  auto models = std::make_shared<ReconstructionManager>();
-  CommunityMapperSummary summary;
-  if (!RunController(command, options, models, &summary)) {
-    return false;
-  }
-  std::vector<std::string> outputs;
-  try {
-    outputs = WriteOutputs(command, workspace, *models, summary);
-  } catch (const std::exception& error) {
-    LOG(ERROR) << "Writing to " << workspace.OutputPath()
-               << " failed: " << error.what()
-               << ". No file or model folder is half-written; check the free "
-                  "space and permissions, then run the same command again "
-                  "(it resumes).";
-    return false;
-  }
-  LOG(INFO) << "Results:";
-  for (const std::string& output : outputs) {
-    LOG(INFO) << "  " << output;
-  }
-  return true;
-}
-
-namespace {
-
 // Parses the command line of `stage`'s command into `command`. False (with
 // the reason logged) on unparsable options; exits on --help, as every COLMAP
 // command does.
@@ -319,6 +277,41 @@ int RunStage(int argc, char** argv, const CommunityMapperStage stage) {
 }
 
 }  // namespace
+
+bool RunCommunityMapperImpl(const CommunityMapperCommand& command) {
+  CommunityMapperController::Options options;
+  const CommunityWorkspace workspace(command.options.mapper.output_path);
+  OutputLock lock;
+  if (!ControllerOptions(command, &options) ||
+      !PrepareWorkspace(command, workspace, &lock)) {
+    return false;
+  }
+  if (command.stage == CommunityMapperStage::kAll ||
+      command.stage == CommunityMapperStage::kMerge) {
+    CheckImagePath(options.image_path);
+  }
+  auto models = std::make_shared<ReconstructionManager>();
+  CommunityMapperSummary summary;
+  if (!RunController(command, options, models, &summary)) {
+    return false;
+  }
+  std::vector<std::string> outputs;
+  try {
+    outputs = WriteOutputs(command, workspace, *models, summary);
+  } catch (const std::exception& error) {
+    LOG(ERROR) << "Writing to " << workspace.OutputPath()
+               << " failed: " << error.what()
+               << ". No file or model folder is half-written; check the free "
+                  "space and permissions, then run the same command again "
+                  "(it resumes).";
+    return false;
+  }
+  LOG(INFO) << "Results:";
+  for (const std::string& output : outputs) {
+    LOG(INFO) << "  " << output;
+  }
+  return true;
+}
 
 int RunCommunityMapper(int argc, char** argv) {
   return RunStage(argc, argv, CommunityMapperStage::kAll);

@@ -32,8 +32,7 @@ enum class CommunityMapperStage {
 
 struct CommunityMapperCommand {
   CommunityMapperStage stage = CommunityMapperStage::kAll;
-  // The options (community_mapper_options.h); their values are checked by
-  // RunCommunityMapperImpl.
+  // The options (community_mapper_options.h); checked when the command runs.
   CommunityMapperCommandOptions options;
   // --image_list_path: the image names to reconstruct, one per line (empty:
   // every image); --Mapper.image_list_path itself is refused.

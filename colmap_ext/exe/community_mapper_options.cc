@@ -5,8 +5,6 @@
 #include "colmap/util/file.h"
 
 #include <filesystem>
-
-#include <set>
 #include <sstream>
 
 namespace colmap {

@@ -66,8 +66,7 @@ struct CommunityMapperOption {
   double* double_value = nullptr;
   std::string* string_value = nullptr;
   std::string help;
-  // Recorded in the plan (the later stages refuse a plan made with another
-  // value).
+  // Recorded in the plan.
   bool shapes_plan = false;
   // An advanced option: after the options users set in -h and the docs.
   bool advanced = false;

@@ -7,7 +7,6 @@
 #include "colmap/util/types.h"
 
 #include <algorithm>
-#include <cmath>
 #include <mutex>
 #include <set>
 #include <string>
@@ -46,26 +45,10 @@ struct PairOutcome {
   bool has_similarity = false;
   RelativeSimilarity similarity;
   std::vector<image_pair_t> false_pairs;
-  // The inlier point pairs of every transform the co-visibility check
-  // rejected.
+  // The inlier point pairs of every transform the co-visibility check rejected.
   std::set<std::pair<point3D_t, point3D_t>> rejected_inliers;
   std::string log;
 };
-
-// A transform estimated between communities 1 and 2 and its inliers, as
-// the averaging takes it (the shared images not yet checked).
-RelativeSimilarity ToRelativeSimilarity(const int community1,
-                                        const int community2,
-                                        const PairwiseSimilarity& estimate) {
-  RelativeSimilarity relative;
-  relative.community1 = community1;
-  relative.community2 = community2;
-  relative.second_from_first = estimate.second_from_first;
-  relative.points1 = estimate.inlier_points1;
-  relative.points2 = estimate.inlier_points2;
-  relative.num_inliers = estimate.num_inliers;
-  return relative;
-}
 
 // Images on the border that both models registered: each of their
 // keypoints with a 3D point in both is a correspondence.
@@ -115,10 +98,9 @@ void RecordFalseCrossPairs(const Reconstruction& model1,
 }
 
 // The similarity of communities 1 and 2 from the images both models
-// registered and the matches of their cross edges (read from `database`
-// under `database_mutex`). RANSAC draws from a seed of the pair's own, so
-// that the outcome does not depend on the thread that runs it or on the
-// order of the pairs.
+// registered and their cross edges' matches (read under `database_mutex`).
+// RANSAC draws from a seed of the pair's own, so that the outcome depends
+// neither on the thread that runs it nor on the order of the pairs.
 PairOutcome EstimatePairSimilarity(
     const Database& database,
     std::mutex* database_mutex,
@@ -172,17 +154,12 @@ PairOutcome EstimatePairSimilarity(
                                           candidate.inlier_point3D_ids.end());
           rejected += StringPrintf(
               " [%d inliers rejected: co-visible pairs verified %d of %d "
-              "across, %d of %d inside; close views %d of %d across, %d of "
-              "%d inside]",
+              "across, %d of %d inside]",
               candidate.num_inliers,
               covisibility.cross.num_verified,
               covisibility.cross.num_predicted,
               covisibility.internal.num_verified,
-              covisibility.internal.num_predicted,
-              covisibility.cross.num_verified_close,
-              covisibility.cross.num_predicted_close,
-              covisibility.internal.num_verified_close,
-              covisibility.internal.num_predicted_close);
+              covisibility.internal.num_predicted);
         }
         return covisibility.consistent;
       },
@@ -234,7 +211,12 @@ PairOutcome EstimatePairSimilarity(
     return outcome;
   }
   RelativeSimilarity& relative = outcome.similarity;
-  relative = ToRelativeSimilarity(community1, community2, similarity);
+  relative.community1 = community1;
+  relative.community2 = community2;
+  relative.second_from_first = similarity.second_from_first;
+  relative.points1 = similarity.inlier_points1;
+  relative.points2 = similarity.inlier_points2;
+  relative.num_inliers = similarity.num_inliers;
   relative.num_supporting_images = num_supporting_images;
   relative.num_shared_images = agreement.num_shared_images;
   relative.num_agreeing_shared_images = agreement.num_agreeing;
@@ -263,12 +245,10 @@ CommunitySimilarities EstimateCommunitySimilarities(
     return verified_pairs.count(ImagePairToPairId(image_id1, image_id2)) > 0;
   };
 
-  // COLMAP's matchers record every pair they compare, those whose
-  // verification failed too: a pair the matcher compared has a two-view
-  // geometry in the database, verified or not. A database without a failed
-  // pair (e.g. the generated scenes, which store the verified pairs only)
-  // cannot tell a pair never compared from one that failed: every pair
-  // counts as compared, as after exhaustive matching.
+  // A pair the matcher compared has a two-view geometry, verified or not
+  // (covisibility_check.h). A database without a failed pair (e.g. the
+  // generated scenes) cannot tell a pair never compared from one that
+  // failed: every pair counts as compared, as after exhaustive matching.
   std::mutex database_mutex;
   std::function<bool(image_t, image_t)> is_compared_pair;
   if (view_graph.NumFailedPairs() > 0) {

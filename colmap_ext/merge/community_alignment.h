@@ -2,17 +2,13 @@
 //
 // CSfM (Cui et al., ICIP 2017), section 3: "given the co-visible 3D points
 // between a pair of connected communities, RANSAC is used to estimate a 3D
-// similarity transformation". Two communities are connected where the view
-// graph has edges between their images (cross edges). Their co-visible
-// points come from the verified matches of those edges and from the images
-// both models registered (image_overlap): see pairwise_similarity.h.
-//
-// Every similarity is checked against the image pairs the matcher verified
-// (covisibility_check.h); a rejected one gives way to the next estimated
-// from its outliers, up to PairwiseSimilarityOptions::max_num_hypotheses.
-// The cross pairs whose matches mostly supported rejected transforms (e.g.
-// matches between two identical facades) are reported as false pairs: the
-// merged model's refinement must not re-introduce them as tracks.
+// similarity transformation". Communities are connected by view-graph edges
+// between their images (cross edges); their co-visible points come from
+// those edges' matches and the images both models registered (image_overlap;
+// pairwise_similarity.h). A similarity the co-visibility check rejects
+// (covisibility_check.h) gives way to the next from its outliers. Cross pairs
+// whose matches mostly supported rejected transforms (two identical facades)
+// are false pairs, which the merged model's tracks must leave out.
 
 #pragma once
 

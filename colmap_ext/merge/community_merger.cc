@@ -19,8 +19,6 @@
 namespace colmap {
 namespace {
 
-using Models = std::vector<std::shared_ptr<Reconstruction>>;
-
 // Where the memory stands after a step (for a long run's log).
 void LogMemory(const std::string& step) {
   LOG(INFO) << "Memory after " << step << ": "
@@ -48,84 +46,6 @@ CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
   return groups;
 }
 
-// Community `record.community_id`'s other models in `workspace` (largest
-// first) each become an extra community, numbered after those in `models`,
-// if they registered at least `min_model_size` of its own images that no
-// larger model of it taking part did; it owns those images, which keep the
-// shape its mapper gave them. Its report and origin are added to `result`.
-void AddExtraCommunities(const CommunityWorkspace& workspace,
-                         const CommunityRecord& record,
-                         const int min_model_size,
-                         CommunityImages* communities,
-                         Models* models,
-                         std::vector<std::string>* model_paths,
-                         CommunityMergerResult* result) {
-  const int c = record.community_id;
-  const std::vector<image_t> reg_image_ids = (*models)[c]->RegImageIds();
-  std::unordered_set<image_t> taken_image_ids(reg_image_ids.begin(),
-                                              reg_image_ids.end());
-  for (int index = 1; index <= record.num_other_models; ++index) {
-    auto other_model = std::make_shared<Reconstruction>();
-    const std::string path = workspace.CommunityOtherModelPath(c, index);
-    other_model->Read(path);
-    const std::vector<image_t> other_reg_image_ids = other_model->RegImageIds();
-    std::unordered_set<image_t> owned_image_ids;
-    for (const image_t image_id : other_reg_image_ids) {
-      if (communities->own_image_ids[c].count(image_id) > 0 &&
-          taken_image_ids.count(image_id) == 0) {
-        owned_image_ids.insert(image_id);
-      }
-    }
-    if (static_cast<int>(owned_image_ids.size()) < min_model_size) {
-      LOG(INFO) << StringPrintf(
-          "Community %d's model %d of %d holds %d of its own images that no "
-          "larger model of it holds: too few to take part",
-          c,
-          index + 1,
-          record.num_models,
-          static_cast<int>(owned_image_ids.size()));
-      continue;
-    }
-    taken_image_ids.insert(other_reg_image_ids.begin(),
-                           other_reg_image_ids.end());
-    const int extra = static_cast<int>(models->size());
-    LOG(INFO) << StringPrintf(
-        "Community %d's model %d of %d (%d images, %d of its own that no "
-        "larger model of it holds) takes part as community %d",
-        c,
-        index + 1,
-        record.num_models,
-        static_cast<int>(other_model->NumRegImages()),
-        static_cast<int>(owned_image_ids.size()),
-        extra);
-    for (const image_t image_id : owned_image_ids) {
-      communities->own_image_ids[c].erase(image_id);
-      communities->community_of_image[image_id] = extra;
-    }
-    communities->own_image_ids.push_back(std::move(owned_image_ids));
-    CommunityModelReport report = result->community_reports[c];
-    report.num_registered = static_cast<int>(other_model->NumRegImages());
-    report.model_index = index + 1;
-    result->community_reports.push_back(report);
-    result->extra_community_origins.push_back(c);
-    models->push_back(std::move(other_model));
-    model_paths->push_back(path);
-  }
-}
-
-// The images of `image_ids` that are not in `taken_image_ids`.
-std::unordered_set<image_t> ImagesNotTaken(
-    const std::vector<image_t>& image_ids,
-    const std::unordered_set<image_t>& taken_image_ids) {
-  std::unordered_set<image_t> left_image_ids;
-  for (const image_t image_id : image_ids) {
-    if (taken_image_ids.count(image_id) == 0) {
-      left_image_ids.insert(image_id);
-    }
-  }
-  return left_image_ids;
-}
-
 }  // namespace
 
 bool CommunityMergerOptions::Check() const {
@@ -151,13 +71,9 @@ void CommunityMerger::EstimateSimilarities() {
       Database::Open(options_.database_path);
   view_graph_ = std::make_unique<ViewGraph>(ViewGraph::Read(
       *database, options_.min_num_matches, options_.image_names));
-  result_.num_view_graph_images = static_cast<int>(view_graph_->NumVertices());
-  result_.num_view_graph_edges = static_cast<int>(view_graph_->NumEdges());
   communities_ = GroupImagesByCommunity(*view_graph_, plan_);
   result_.community_of_image = communities_.community_of_image;
 
-  // The communities, as their stage left them on disk: the plan's, then the
-  // extra ones.
   ReadCommunityModels();
   LogMemory("reading the community models");
 
@@ -182,9 +98,8 @@ void CommunityMerger::EstimateSimilarities() {
   }
 }
 
-// The communities' models as their stage left them in the workspace (none
-// for a community that registered nothing), the plan's first, then the extra
-// communities (AddExtraCommunities), with their paths and reports.
+// The communities' models as their stage wrote them (none where nothing was
+// registered), the plan's then the extra ones, with paths and reports.
 void CommunityMerger::ReadCommunityModels() {
   const int num_plan_communities = plan_.NumCommunities();
   models_.assign(num_plan_communities, nullptr);
@@ -206,14 +121,67 @@ void CommunityMerger::ReadCommunityModels() {
   }
   for (int c = 0; c < num_plan_communities; ++c) {
     if (models_[c]) {
-      AddExtraCommunities(workspace_,
-                          records[c],
-                          options_.incremental_options.min_model_size,
-                          &communities_,
-                          &models_,
-                          &model_paths_,
-                          &result_);
+      AddExtraCommunities(records[c]);
     }
+  }
+}
+
+// Community `record.community_id`'s other models (largest first) each become
+// an extra community, numbered after those in `models_`, if they registered
+// at least --Mapper.min_model_size of its own images that no larger model of
+// it taking part did; it owns those images. Its report and origin are added.
+void CommunityMerger::AddExtraCommunities(const CommunityRecord& record) {
+  const int c = record.community_id;
+  const std::vector<image_t> reg_image_ids = models_[c]->RegImageIds();
+  std::unordered_set<image_t> taken_image_ids(reg_image_ids.begin(),
+                                              reg_image_ids.end());
+  for (int index = 1; index <= record.num_other_models; ++index) {
+    auto other_model = std::make_shared<Reconstruction>();
+    const std::string path = workspace_.CommunityOtherModelPath(c, index);
+    other_model->Read(path);
+    const std::vector<image_t> other_reg_image_ids = other_model->RegImageIds();
+    std::unordered_set<image_t> owned_image_ids;
+    for (const image_t image_id : other_reg_image_ids) {
+      if (communities_.own_image_ids[c].count(image_id) > 0 &&
+          taken_image_ids.count(image_id) == 0) {
+        owned_image_ids.insert(image_id);
+      }
+    }
+    if (static_cast<int>(owned_image_ids.size()) <
+        options_.incremental_options.min_model_size) {
+      LOG(INFO) << StringPrintf(
+          "Community %d's model %d of %d holds %d of its own images that no "
+          "larger model of it holds: too few to take part",
+          c,
+          index + 1,
+          record.num_models,
+          static_cast<int>(owned_image_ids.size()));
+      continue;
+    }
+    taken_image_ids.insert(other_reg_image_ids.begin(),
+                           other_reg_image_ids.end());
+    const int extra = static_cast<int>(models_.size());
+    LOG(INFO) << StringPrintf(
+        "Community %d's model %d of %d (%d images, %d of its own that no "
+        "larger model of it holds) takes part as community %d",
+        c,
+        index + 1,
+        record.num_models,
+        static_cast<int>(other_model->NumRegImages()),
+        static_cast<int>(owned_image_ids.size()),
+        extra);
+    for (const image_t image_id : owned_image_ids) {
+      communities_.own_image_ids[c].erase(image_id);
+      communities_.community_of_image[image_id] = extra;
+    }
+    communities_.own_image_ids.push_back(std::move(owned_image_ids));
+    CommunityModelReport report = result_.community_reports[c];
+    report.num_registered = static_cast<int>(other_model->NumRegImages());
+    report.model_index = index + 1;
+    result_.community_reports.push_back(report);
+    result_.extra_community_origins.push_back(c);
+    models_.push_back(std::move(other_model));
+    model_paths_.push_back(path);
   }
 }
 
@@ -300,7 +268,8 @@ void CommunityMerger::Solve() {
 // images), a part of several the communities joined in the averaged frame
 // and refined over all their images. Where the join or its refinement
 // fails, nothing is lost: the part's communities become models of their
-// own. The communities' models are consumed.
+// own. The communities' models are consumed (released once joined, so that
+// the refinement holds only the joined model).
 void CommunityMerger::JoinAndRefineParts() {
   const int num_communities = static_cast<int>(models_.size());
   std::vector<bool> has_model(num_communities);
@@ -334,6 +303,11 @@ void CommunityMerger::JoinAndRefineParts() {
     try {
       part_model.model = JoinPart(part_communities);
       part_model.joined = true;
+      // The joined model holds all the refinement needs.
+      for (const int c : part_communities) {
+        models_[c].reset();
+      }
+      ReleaseFreedMemory();
       if (!options_.skip_global_refinement) {
         RefinePart(part_model.model);
       }
@@ -342,16 +316,14 @@ void CommunityMerger::JoinAndRefineParts() {
       LOG(ERROR) << "Merging communities failed: " << error.what()
                  << "; each of them is written as a model of its own.";
       for (const int c : part_communities) {
+        models_[c].reset();
         PartModel community_model;
         community_model.communities = {c};
         community_model.model = OwnModel(c, /*model=*/nullptr);
         part_models_.push_back(std::move(community_model));
       }
+      ReleaseFreedMemory();
     }
-    for (const int c : part_communities) {
-      models_[c].reset();
-    }
-    ReleaseFreedMemory();
   }
 }
 
@@ -359,15 +331,11 @@ void CommunityMerger::JoinAndRefineParts() {
 // images (global_refinement.h).
 void CommunityMerger::RefinePart(
     const std::shared_ptr<Reconstruction>& merged) const {
-  std::unordered_set<std::string> image_names;
-  for (const image_t image_id : merged->RegImageIds()) {
-    image_names.insert(merged->Image(image_id).Name());
-  }
   const double initial_error = merged->ComputeMeanReprojectionError();
   THROW_CHECK(RefineMergedModel(
       MergedModelRefinementOptions(options_.incremental_options,
                                    options_.refinement_function_tolerance),
-      LoadPartCorrespondences(image_names, *merged),
+      LoadPartCorrespondences(/*image_names=*/{}, *merged),
       merged))
       << "the bundle adjustment of the merged model failed";
   merged->TearDown();
@@ -389,8 +357,12 @@ void CommunityMerger::RefinePart(
 void CommunityMerger::RegisterRemainingImagesOfParts() {
   std::unordered_set<image_t> registered_image_ids;
   for (PartModel& part_model : part_models_) {
-    const std::unordered_set<image_t> kept_image_ids =
-        ImagesNotTaken(part_model.model->RegImageIds(), registered_image_ids);
+    std::unordered_set<image_t> kept_image_ids;
+    for (const image_t image_id : part_model.model->RegImageIds()) {
+      if (registered_image_ids.count(image_id) == 0) {
+        kept_image_ids.insert(image_id);
+      }
+    }
     std::shared_ptr<Reconstruction> model =
         RestrictToImages(kept_image_ids, std::move(part_model.model));
     if (model->NumRegImages() < 2) {
@@ -435,9 +407,8 @@ void CommunityMerger::RegisterRemainingImagesOfParts() {
                    });
 }
 
-// COLMAP's incremental mapper continues `*model` with `image_names`
-// (global_refinement.h). Where that fails, the model stays as it was.
-// Whether the model changed.
+// COLMAP's incremental mapper continues `*model` with `image_names`; where
+// that fails, the model stays as it was. Whether the model changed.
 bool CommunityMerger::RegisterIntoPart(
     const std::unordered_set<std::string>& image_names,
     std::shared_ptr<Reconstruction>* model) const {
@@ -447,16 +418,12 @@ bool CommunityMerger::RegisterIntoPart(
       static_cast<int>((*model)->NumRegImages()));
   auto registered = std::make_shared<Reconstruction>(**model);
   try {
-    std::unordered_set<std::string> cache_image_names = image_names;
-    for (const image_t image_id : registered->RegImageIds()) {
-      cache_image_names.insert(registered->Image(image_id).Name());
-    }
     auto mapper_options =
         std::make_shared<IncrementalPipelineOptions>(options_.incremental_options);
     mapper_options->extract_colors = false;
     const int num_new = RegisterRemainingImages(
         mapper_options,
-        LoadPartCorrespondences(cache_image_names, *registered),
+        LoadPartCorrespondences(image_names, *registered),
         registered);
     LOG(INFO) << StringPrintf("%d images newly registered: %d in the model",
                               num_new,
@@ -502,8 +469,6 @@ void CommunityMerger::LeaveOutUnpairedImages(
   }
 }
 
-// The correspondences of `image_names`, without the false pairs; every
-// image registered in `model` must have some.
 std::shared_ptr<DatabaseCache> CommunityMerger::LoadPartCorrespondences(
     const std::unordered_set<std::string>& image_names,
     const Reconstruction& model) const {
@@ -513,6 +478,9 @@ std::shared_ptr<DatabaseCache> CommunityMerger::LoadPartCorrespondences(
   database_cache_options.ignore_watermarks =
       options_.incremental_options.ignore_watermarks;
   database_cache_options.image_names = image_names;
+  for (const image_t image_id : model.RegImageIds()) {
+    database_cache_options.image_names.insert(model.Image(image_id).Name());
+  }
   std::shared_ptr<DatabaseCache> database_cache;
   {
     const std::shared_ptr<Database> database =

@@ -96,9 +96,6 @@ struct CommunityMergerResult {
   std::vector<int> extra_community_origins;
   // The plan's community of every image of the view graph.
   std::unordered_map<image_t, int> community_of_image;
-  // View graph of the merge.
-  int num_view_graph_images = 0;
-  int num_view_graph_edges = 0;
   // Pairs of communities joined by view-graph edges, with a similarity,
   // and kept by the averaging.
   int num_community_pairs = 0;
@@ -150,6 +147,7 @@ class CommunityMerger {
   // Stage 1 (with the communities' models read) and stage 2.
   void EstimateSimilarities();
   void ReadCommunityModels();
+  void AddExtraCommunities(const CommunityRecord& record);
   void AverageSimilarities();
   // Stage 3: every part's model.
   void JoinAndRefineParts();
@@ -170,7 +168,8 @@ class CommunityMerger {
   void LeaveOutUnpairedImages(
       const std::unordered_set<std::string>& part_image_names,
       std::vector<std::unordered_set<image_t>>* owned_image_ids) const;
-  // The correspondences of `image_names`, without the false pairs.
+  // The correspondences of `model`'s registered images and `image_names`,
+  // without the false pairs; every registered image must have some.
   std::shared_ptr<DatabaseCache> LoadPartCorrespondences(
       const std::unordered_set<std::string>& image_names,
       const Reconstruction& model) const;
@@ -180,9 +179,8 @@ class CommunityMerger {
   const CommunityWorkspace workspace_;
   bool solved_ = false;
 
-  // Stage 1: the view graph, the communities' images, models (null where a
-  // community has none or has been consumed) and their paths, the
-  // view-graph edges between communities and the similarities.
+  // Stage 1: the view graph, the communities' images, models (null where
+  // none or consumed) and paths, and the cross edges.
   std::unique_ptr<ViewGraph> view_graph_;
   CommunityImages communities_;
   std::vector<std::shared_ptr<Reconstruction>> models_;

@@ -35,9 +35,10 @@ struct ImageView {
   }
 };
 
+// The registered images, each with at most kMaxNumPoints of its points.
 std::vector<ImageView> ImageViews(const Reconstruction& reconstruction,
-                                  const Sim3d& common_from_model,
-                                  const int max_num_points) {
+                                  const Sim3d& common_from_model) {
+  constexpr size_t kMaxNumPoints = 200;
   const Sim3d model_from_common = Inverse(common_from_model);
   std::vector<ImageView> views;
   views.reserve(reconstruction.NumRegImages());
@@ -68,8 +69,7 @@ std::vector<ImageView> ImageViews(const Reconstruction& reconstruction,
         }
       }
     }
-    const size_t step =
-        std::max<size_t>(1, point3D_ids.size() / std::max(1, max_num_points));
+    const size_t step = std::max<size_t>(1, point3D_ids.size() / kMaxNumPoints);
     for (size_t i = 0; i < point3D_ids.size(); i += step) {
       view.points.push_back(common_from_model *
                             reconstruction.Point3D(point3D_ids[i]).xyz);
@@ -84,8 +84,7 @@ std::vector<ImageView> ImageViews(const Reconstruction& reconstruction,
 // most `max_ray_angle` apart.
 int NumVisiblePoints(const ImageView& view,
                      const ImageView& other,
-                     const double min_cos_ray_angle,
-                     double* sum_ray_angles) {
+                     const double min_cos_ray_angle) {
   // Depth slack before a point counts as hidden behind a seen surface.
   constexpr double kMaxDepthRatio = 1.25;
   int num_visible = 0;
@@ -107,66 +106,11 @@ int NumVisiblePoints(const ImageView& view,
     }
     const Eigen::Vector3d ray = (point - view.center).normalized();
     const Eigen::Vector3d other_ray = (point - other.center).normalized();
-    const double cos_ray_angle = ray.dot(other_ray);
-    if (cos_ray_angle < min_cos_ray_angle) {
-      continue;
+    if (ray.dot(other_ray) >= min_cos_ray_angle) {
+      ++num_visible;
     }
-    *sum_ray_angles += std::acos(std::max(-1.0, std::min(1.0, cos_ray_angle)));
-    ++num_visible;
   }
   return num_visible;
-}
-
-// How a pair of images is predicted to see the other's points.
-enum class Covisibility { kNone, kWideViews, kCloseViews };
-
-// Co-visible where each sees at least kMinNumPoints of the other's points;
-// close views where their rays to those points are on average at most
-// `close_ray_angle_deg` apart.
-Covisibility PredictCovisibility(const ImageView& view1,
-                                 const ImageView& view2,
-                                 const CovisibilityCheckOptions& options) {
-  constexpr int kMinNumPoints = 15;
-  const double min_cos = std::cos(DegToRad(options.max_ray_angle_deg));
-  double sum_ray_angles = 0;
-  const int num_visible1 =
-      NumVisiblePoints(view1, view2, min_cos, &sum_ray_angles);
-  if (num_visible1 < kMinNumPoints) {
-    return Covisibility::kNone;
-  }
-  const int num_visible2 =
-      NumVisiblePoints(view2, view1, min_cos, &sum_ray_angles);
-  if (num_visible2 < kMinNumPoints) {
-    return Covisibility::kNone;
-  }
-  const double mean_ray_angle = sum_ray_angles / (num_visible1 + num_visible2);
-  return mean_ray_angle <= DegToRad(options.close_ray_angle_deg)
-             ? Covisibility::kCloseViews
-             : Covisibility::kWideViews;
-}
-
-// Counts the pair if the matcher compared it (every pair, without
-// `is_compared_pair`) and it is predicted co-visible.
-void CountPair(const ImageView& view1,
-               const ImageView& view2,
-               const std::function<bool(image_t, image_t)>& is_verified_pair,
-               const std::function<bool(image_t, image_t)>& is_compared_pair,
-               const CovisibilityCheckOptions& options,
-               PairCounts* counts) {
-  if (is_compared_pair && !is_compared_pair(view1.image_id, view2.image_id)) {
-    return;
-  }
-  const Covisibility covisibility = PredictCovisibility(view1, view2, options);
-  if (covisibility == Covisibility::kNone) {
-    return;
-  }
-  const bool verified = is_verified_pair(view1.image_id, view2.image_id);
-  ++counts->num_predicted;
-  counts->num_verified += verified;
-  if (covisibility == Covisibility::kCloseViews) {
-    ++counts->num_predicted_close;
-    counts->num_verified_close += verified;
-  }
 }
 
 // The given quantile of the centre distances of the verified pairs among
@@ -193,42 +137,11 @@ double VerifiedPairDistanceQuantile(
   return distances[k];
 }
 
-// Predicted co-visible and verified pairs among the near pairs of `views`,
-// at most `max_num_pairs` of them (evenly chosen).
-void CountInternalPairs(
-    const std::vector<ImageView>& views,
-    const double max_distance,
-    const std::function<bool(image_t, image_t)>& is_verified_pair,
-    const std::function<bool(image_t, image_t)>& is_compared_pair,
-    const CovisibilityCheckOptions& options,
-    PairCounts* counts) {
-  std::vector<std::pair<int, int>> near_pairs;
-  for (size_t i = 0; i < views.size(); ++i) {
-    for (size_t j = i + 1; j < views.size(); ++j) {
-      if ((views[i].center - views[j].center).norm() <= max_distance) {
-        near_pairs.emplace_back(static_cast<int>(i), static_cast<int>(j));
-      }
-    }
-  }
-  // At most 2000 pairs inside each model are tested for its rate.
-  const size_t step = std::max<size_t>(1, near_pairs.size() / 2000);
-  for (size_t k = 0; k < near_pairs.size(); k += step) {
-    CountPair(views[near_pairs[k].first],
-              views[near_pairs[k].second],
-              is_verified_pair,
-              is_compared_pair,
-              options,
-              counts);
-  }
-}
-
 }  // namespace
 
 bool CovisibilityCheckOptions::Check() const {
   CHECK_OPTION_GT(max_ray_angle_deg, 0);
   CHECK_OPTION_LE(max_ray_angle_deg, 180);
-  CHECK_OPTION_GT(max_distance_quantile, 0);
-  CHECK_OPTION_LE(max_distance_quantile, 1);
   if (!CheckFlag(min_rate_ratio >= 0,
                  "covisibility_min_rate_ratio",
                  min_rate_ratio,
@@ -236,8 +149,6 @@ bool CovisibilityCheckOptions::Check() const {
     return false;
   }
   CHECK_OPTION_GE(min_num_predicted_pairs, 1);
-  CHECK_OPTION_GE(close_ray_angle_deg, 0);
-  CHECK_OPTION_LE(close_ray_angle_deg, max_ray_angle_deg);
   return true;
 }
 
@@ -255,28 +166,56 @@ CovisibilityCheck CheckCovisibility(
     const CovisibilityCheckOptions& options) {
   THROW_CHECK(options.Check());
   CovisibilityCheck check;
-  constexpr int kMaxNumPointsPerImage = 200;
-  const std::vector<ImageView> views1 =
-      ImageViews(reconstruction1, Sim3d(), kMaxNumPointsPerImage);
-  const std::vector<ImageView> views2 = ImageViews(
-      reconstruction2, Inverse(second_from_first), kMaxNumPointsPerImage);
+  const std::vector<ImageView> views1 = ImageViews(reconstruction1, Sim3d());
+  const std::vector<ImageView> views2 =
+      ImageViews(reconstruction2, Inverse(second_from_first));
 
+  // Pairs are tested up to this quantile of the centre distances of the
+  // verified pairs inside the models.
+  constexpr double kMaxDistanceQuantile = 0.9;
   const double max_distance =
       std::max(VerifiedPairDistanceQuantile(
-                   views1, is_verified_pair, options.max_distance_quantile),
+                   views1, is_verified_pair, kMaxDistanceQuantile),
                VerifiedPairDistanceQuantile(
-                   views2, is_verified_pair, options.max_distance_quantile));
+                   views2, is_verified_pair, kMaxDistanceQuantile));
   if (max_distance <= 0) {
     return check;
   }
 
+  // Counts the pair if the matcher compared it (every pair, without
+  // `is_compared_pair`) and it is predicted co-visible: each image sees at
+  // least kMinNumPoints of the other's points.
+  constexpr int kMinNumPoints = 15;
+  const double min_cos = std::cos(DegToRad(options.max_ray_angle_deg));
+  const auto count_pair = [&](const ImageView& view1,
+                              const ImageView& view2,
+                              PairCounts* counts) {
+    if ((is_compared_pair &&
+         !is_compared_pair(view1.image_id, view2.image_id)) ||
+        NumVisiblePoints(view1, view2, min_cos) < kMinNumPoints ||
+        NumVisiblePoints(view2, view1, min_cos) < kMinNumPoints) {
+      return;
+    }
+    ++counts->num_predicted;
+    counts->num_verified += is_verified_pair(view1.image_id, view2.image_id);
+  };
+
+  // Inside each model: at most 2000 of its near pairs (evenly chosen).
   for (const std::vector<ImageView>* views : {&views1, &views2}) {
-    CountInternalPairs(*views,
-                       max_distance,
-                       is_verified_pair,
-                       is_compared_pair,
-                       options,
-                       &check.internal);
+    std::vector<std::pair<int, int>> near_pairs;
+    for (size_t i = 0; i < views->size(); ++i) {
+      for (size_t j = i + 1; j < views->size(); ++j) {
+        if (((*views)[i].center - (*views)[j].center).norm() <= max_distance) {
+          near_pairs.emplace_back(static_cast<int>(i), static_cast<int>(j));
+        }
+      }
+    }
+    const size_t step = std::max<size_t>(1, near_pairs.size() / 2000);
+    for (size_t k = 0; k < near_pairs.size(); k += step) {
+      count_pair((*views)[near_pairs[k].first],
+                 (*views)[near_pairs[k].second],
+                 &check.internal);
+    }
   }
 
   for (const ImageView& view1 : views1) {
@@ -290,12 +229,7 @@ CovisibilityCheck CheckCovisibility(
            reconstruction1.Image(view2.image_id).HasPose())) {
         continue;
       }
-      CountPair(view1,
-                view2,
-                is_verified_pair,
-                is_compared_pair,
-                options,
-                &check.cross);
+      count_pair(view1, view2, &check.cross);
     }
   }
 

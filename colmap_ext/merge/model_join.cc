@@ -2,10 +2,7 @@
 
 #include "colmap/util/logging.h"
 
-#include <algorithm>
-
 namespace colmap {
-
 namespace {
 
 // Which reconstruction each registered frame comes from: the first that
@@ -181,15 +178,6 @@ void JoinFrames(const std::vector<Reconstruction*>& reconstructions,
   }
 }
 
-// Deletes the points with fewer than two observations.
-void DeletePointsWithShortTracks(Reconstruction* reconstruction) {
-  for (const point3D_t point3D_id : reconstruction->Point3DIds()) {
-    if (reconstruction->Point3D(point3D_id).track.Length() < 2) {
-      reconstruction->DeletePoint3D(point3D_id);
-    }
-  }
-}
-
 }  // namespace
 
 void JoinReconstructions(
@@ -209,8 +197,7 @@ void JoinReconstructions(
   JoinCamerasAndRigs(reconstructions, frame_sources, merged);
   JoinFrames(reconstructions, frame_sources, merged);
 
-  // Each point keeps its observations in the frames its reconstruction
-  // gives.
+  // Each point keeps its observations in the frames its reconstruction gives.
   for (size_t r = 0; r < reconstructions.size(); ++r) {
     const Reconstruction& reconstruction = *reconstructions[r];
     for (const auto& [point3D_id, point3D] : reconstruction.Points3D()) {
@@ -243,7 +230,11 @@ std::shared_ptr<Reconstruction> RestrictToImages(
   auto restricted = std::make_shared<Reconstruction>();
   JoinReconstructions(
       {reconstruction.get()}, {Sim3d()}, {image_ids}, restricted.get());
-  DeletePointsWithShortTracks(restricted.get());
+  for (const point3D_t point3D_id : restricted->Point3DIds()) {
+    if (restricted->Point3D(point3D_id).track.Length() < 2) {
+      restricted->DeletePoint3D(point3D_id);
+    }
+  }
   return restricted;
 }
 

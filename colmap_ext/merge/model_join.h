@@ -19,16 +19,13 @@ namespace colmap {
 
 // Transforms every reconstruction into the global frame and joins their
 // rigs, cameras, registered frames with their images, and points into
-// `merged` (which must be empty). Each image is taken from the one
-// reconstruction that owns it (`owned_image_ids`; an image registered by
-// several, as on community borders, is owned by one), with its whole frame
-// (a frame whose images several reconstructions own comes from the first of
-// them: a frame's images stay together); the other reconstructions'
-// observations in the frame's images are dropped, and points left without
-// observations too. A camera (rig) used by several reconstructions takes the
-// parameters of the one owning the most images (frames) with it. Ids of
-// rigs, cameras, frames and images are kept. The reconstructions are
-// transformed in place.
+// `merged` (which must be empty). Each image comes from the one
+// reconstruction owning it (`owned_image_ids`; a border image is owned by
+// one) with its whole frame (from the first owner of any of its images);
+// other reconstructions' observations in it are dropped, and points left
+// without any. A shared camera (rig) takes the parameters of the
+// reconstruction owning the most images (frames) with it. Ids are kept; the
+// reconstructions are transformed in place.
 void JoinReconstructions(
     const std::vector<Reconstruction*>& reconstructions,
     const std::vector<Sim3d>& world_from_reconstruction,

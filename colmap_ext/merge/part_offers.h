@@ -1,13 +1,11 @@
 // Where the merge offers the images that no part of its own holds.
 //
-// The similarity averaging splits the communities into parts (joined by kept
-// similarities, numbered largest first), one merged model each. The images
-// of a community without a model are offered to the part its view-graph
-// edges lead to most; a part that no kept similarity joins to an earlier
-// part (larger, or as large) it has edges to is offered to the one it has
-// most edges to, and onward to the part that one is offered to. That part's
-// registration (community_merger.h) registers those it can, as COLMAP's
-// incremental mapper would. docs/design.md, Merge stage 4, gives the reasons.
+// The images of a community without a model are offered to the part
+// (similarity_averaging.h) its view-graph edges lead to most; a part that no
+// kept similarity joins to an earlier part (larger, or as large) it has edges
+// to is offered to the one it has most edges to, and onward. That part's
+// registration (community_merger.h) registers those it can. docs/design.md,
+// Merge stage 4, gives the reasons.
 
 #pragma once
 

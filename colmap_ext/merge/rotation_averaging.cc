@@ -16,15 +16,10 @@
 namespace colmap {
 namespace {
 
+// The shortest representation: Eigen's angle is in [0, pi].
 Eigen::Vector3d RotationToAngleAxis(const Eigen::Quaterniond& rotation) {
   const Eigen::AngleAxisd angle_axis(rotation.normalized());
-  double angle = angle_axis.angle();
-  Eigen::Vector3d axis = angle_axis.axis();
-  if (angle > M_PI) {  // Shortest representation.
-    angle = 2 * M_PI - angle;
-    axis = -axis;
-  }
-  return angle * axis;
+  return angle_axis.angle() * angle_axis.axis();
 }
 
 Eigen::Quaterniond AngleAxisToRotation(const Eigen::Vector3d& angle_axis) {
@@ -148,21 +143,15 @@ double ApplyUpdate(const Eigen::VectorXd& x,
 
 }  // namespace
 
-bool RotationAveragingOptions::Check() const {
-  CHECK_OPTION_GE(max_num_l1_iterations, 0);
-  CHECK_OPTION_GT(l1_step_tolerance, 0);
-  CHECK_OPTION_GE(max_num_irls_iterations, 0);
-  CHECK_OPTION_GT(irls_step_tolerance, 0);
-  CHECK_OPTION_GT(irls_sigma_deg, 0);
-  return true;
-}
-
 bool AverageRotations(int num_nodes,
                       const std::vector<RelativeRotation>& relative_rotations,
                       int reference_node,
-                      const RotationAveragingOptions& options,
                       std::vector<Eigen::Quaterniond>* rotations) {
-  THROW_CHECK(options.Check());
+  constexpr int kMaxNumL1Iterations = 30;
+  constexpr double kL1StepTolerance = 1e-9;
+  constexpr int kMaxNumIrlsIterations = 50;
+  constexpr double kIrlsStepTolerance = 1e-12;
+  constexpr double kIrlsSigmaDeg = 5.0;
   THROW_CHECK_GT(num_nodes, 0);
   THROW_CHECK_GE(reference_node, 0);
   THROW_CHECK_LT(reference_node, num_nodes);
@@ -198,14 +187,14 @@ bool AverageRotations(int num_nodes,
   }
 
   // L1RA: the weighted matrix is factorised once for all iterations.
-  if (options.max_num_l1_iterations > 0) {
+  {
     LeastAbsoluteDeviationSolver::Options l1_options;
     l1_options.max_num_iterations = 5000;
     l1_options.absolute_tolerance = 1e-10;
     l1_options.relative_tolerance = 1e-8;
     const Eigen::SparseMatrix<double> weighted_A = confidence.asDiagonal() * A;
     const LeastAbsoluteDeviationSolver l1_solver(l1_options, weighted_A);
-    for (int iter = 0; iter < options.max_num_l1_iterations; ++iter) {
+    for (int iter = 0; iter < kMaxNumL1Iterations; ++iter) {
       const Eigen::VectorXd weighted_b =
           confidence.asDiagonal() *
           LinearSystemResiduals(relative_rotations, *rotations);
@@ -213,18 +202,17 @@ bool AverageRotations(int num_nodes,
       if (!l1_solver.Solve(weighted_b, &x)) {
         return false;
       }
-      if (ApplyUpdate(x, reference_node, rotations) <
-          options.l1_step_tolerance) {
+      if (ApplyUpdate(x, reference_node, rotations) < kL1StepTolerance) {
         break;
       }
     }
   }
 
   // IRLS with Geman-McClure weights.
-  const double sigma = DegToRad(options.irls_sigma_deg);
+  const double sigma = DegToRad(kIrlsSigmaDeg);
   const double sigma_sq = sigma * sigma;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver;
-  for (int iter = 0; iter < options.max_num_irls_iterations; ++iter) {
+  for (int iter = 0; iter < kMaxNumIrlsIterations; ++iter) {
     const Eigen::VectorXd b =
         LinearSystemResiduals(relative_rotations, *rotations);
     Eigen::VectorXd weights(A.rows());
@@ -248,8 +236,7 @@ bool AverageRotations(int num_nodes,
     if (solver.info() != Eigen::Success) {
       return false;
     }
-    if (ApplyUpdate(x, reference_node, rotations) <
-        options.irls_step_tolerance) {
+    if (ApplyUpdate(x, reference_node, rotations) < kIrlsStepTolerance) {
       break;
     }
   }

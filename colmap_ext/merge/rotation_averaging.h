@@ -11,10 +11,9 @@
 //      solve  min_x sum_ij c_ij |x_j - x_i - w_ij|_1  (x_ref = 0; per axis,
 //      by COLMAP's ADMM least absolute deviations solver) and update
 //      R_k <- R_k exp(x_k), until the update is negligible.
-//   3. IRLS: the same linearisation, solved in weighted least squares with
-//      weights c_ij phi(r), phi(r) = sigma^2 / (r^2 + sigma^2)^2 the
-//      Geman-McClure weight of the residual angle r of each edge, refining
-//      what L1 found.
+//   3. IRLS: the same linearisation in weighted least squares, with weights
+//      c_ij phi(r), phi(r) = sigma^2 / (r^2 + sigma^2)^2 the Geman-McClure
+//      weight of each edge's residual angle r, refining what L1 found.
 // COLMAP's RotationEstimator solves the same over the images of a
 // Reconstruction, every pair alike; the merge's links need their own
 // confidences, so that a cycle's gap falls on its weakest link.
@@ -41,27 +40,13 @@ struct RelativeRotation {
   double weight = 1.0;
 };
 
-struct RotationAveragingOptions {
-  // Maximum number of L1RA iterations and the update size (radians, largest
-  // over all nodes) below which they stop.
-  int max_num_l1_iterations = 30;
-  double l1_step_tolerance = 1e-9;
-
-  // Maximum number of IRLS iterations, their stop criterion, and the scale
-  // sigma of the Geman-McClure weights (degrees).
-  int max_num_irls_iterations = 50;
-  double irls_step_tolerance = 1e-12;
-  double irls_sigma_deg = 5.0;
-
-  bool Check() const;
-};
-
 // Estimates R_0..R_{num_nodes-1} with R_reference = Identity. The graph must
-// be connected. Returns false if it is not or if a solver fails.
+// be connected. Returns false if it is not or if a solver fails. L1RA stops
+// after 30 iterations or an update below 1e-9 rad, IRLS (Geman-McClure
+// sigma 5 degrees) after 50 or below 1e-12 rad.
 bool AverageRotations(int num_nodes,
                       const std::vector<RelativeRotation>& relative_rotations,
                       int reference_node,
-                      const RotationAveragingOptions& options,
                       std::vector<Eigen::Quaterniond>* rotations);
 
 }  // namespace colmap

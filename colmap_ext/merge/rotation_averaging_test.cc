@@ -92,7 +92,7 @@ TEST(AverageRotations, NoiselessIsExact) {
   const Problem problem = MakeProblem(20, 30, /*noise_deg=*/0, 0, 1);
   std::vector<Eigen::Quaterniond> rotations;
   ASSERT_TRUE(AverageRotations(
-      20, problem.edges, 0, RotationAveragingOptions(), &rotations));
+      20, problem.edges, 0, &rotations));
   EXPECT_LT(MaxErrorDeg(rotations, problem.truth), 1e-6);
   EXPECT_LT(rotations[0].angularDistance(Eigen::Quaterniond::Identity()),
             1e-12);
@@ -102,7 +102,7 @@ TEST(AverageRotations, NoisyStaysWithinNoiseLevel) {
   const Problem problem = MakeProblem(30, 60, /*noise_deg=*/1.0, 0, 2);
   std::vector<Eigen::Quaterniond> rotations;
   ASSERT_TRUE(AverageRotations(
-      30, problem.edges, 0, RotationAveragingOptions(), &rotations));
+      30, problem.edges, 0, &rotations));
   EXPECT_LT(MaxErrorDeg(rotations, problem.truth), 1.0);
 }
 
@@ -110,7 +110,7 @@ TEST(AverageRotations, RobustToWrongEdges) {
   const Problem problem = MakeProblem(30, 90, /*noise_deg=*/0.5, 0.2, 3);
   std::vector<Eigen::Quaterniond> rotations;
   ASSERT_TRUE(AverageRotations(
-      30, problem.edges, 0, RotationAveragingOptions(), &rotations));
+      30, problem.edges, 0, &rotations));
   EXPECT_LT(MaxErrorDeg(rotations, problem.truth), 1.0);
   // Residuals separate the wrong edges from the right ones.
   for (size_t e = 0; e < problem.edges.size(); ++e) {
@@ -128,7 +128,7 @@ TEST(AverageRotations, NonZeroReferenceNode) {
   const Problem problem = MakeProblem(10, 10, 0, 0, 4);
   std::vector<Eigen::Quaterniond> rotations;
   ASSERT_TRUE(AverageRotations(
-      10, problem.edges, 7, RotationAveragingOptions(), &rotations));
+      10, problem.edges, 7, &rotations));
   EXPECT_LT(rotations[7].angularDistance(Eigen::Quaterniond::Identity()),
             1e-12);
   for (int i = 0; i < 10; ++i) {
@@ -144,7 +144,7 @@ TEST(AverageRotations, DisconnectedGraphFails) {
   edges[0].node2 = 1;
   std::vector<Eigen::Quaterniond> rotations;
   EXPECT_FALSE(
-      AverageRotations(3, edges, 0, RotationAveragingOptions(), &rotations));
+      AverageRotations(3, edges, 0, &rotations));
 }
 
 }  // namespace

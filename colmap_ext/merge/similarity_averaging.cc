@@ -1,6 +1,7 @@
 #include "colmap_ext/merge/similarity_averaging.h"
 
 #include "colmap_ext/merge/pairwise_similarity.h"
+#include "colmap_ext/merge/rotation_averaging.h"
 #include "colmap_ext/util/option_check.h"
 #include "colmap_ext/util/union_find.h"
 
@@ -12,33 +13,43 @@
 #include <cmath>
 #include <limits>
 #include <map>
-#include <numeric>
 
 #include <Eigen/SparseCore>
 
 namespace colmap {
+
+bool SimilarityAveragingOptions::Check() const {
+  return CheckFlag(max_relative_displacement > 0,
+                   "averaging_max_relative_displacement",
+                   max_relative_displacement,
+                   "positive");
+}
+
+int SimilarityAveragingResult::NumParts() const {
+  return part_of_community.empty()
+             ? 0
+             : 1 + *std::max_element(part_of_community.begin(),
+                                     part_of_community.end());
+}
+
 namespace {
 
 // Solves x_i - x_j = b_e (dim rows per edge e = (i, j), weighted by
-// edge_weights[e]) over the nodes of one connected part in L1 (COLMAP's
-// least absolute deviations solver), with x_reference = 0. `x` has dim entries
-// per node of the part, in the order of `nodes`.
-bool SolveDifferenceSystem(const std::vector<int>& nodes,
+// edge_weights[e]) in L1 over nodes 0..num_nodes-1 of one part,
+// x_reference = 0. `x` has dim entries per node.
+bool SolveDifferenceSystem(const int num_nodes,
                            const std::vector<std::pair<int, int>>& edges,
                            const std::vector<double>& edge_weights,
                            const int dim,
                            const int reference,
                            const Eigen::VectorXd& b,
                            Eigen::VectorXd* x) {
-  std::map<int, int> column;  // node -> variable block, reference excluded
-  for (const int node : nodes) {
-    if (node != reference) {
-      const int index = static_cast<int>(column.size());
-      column.emplace(node, index);
-    }
-  }
-  x->setZero(dim * static_cast<int>(nodes.size()));
-  if (column.empty()) {
+  // A node's variable block; the reference has none.
+  const auto column = [reference](const int node) {
+    return node < reference ? node : node - 1;
+  };
+  x->setZero(dim * num_nodes);
+  if (num_nodes == 1) {
     return true;
   }
 
@@ -47,16 +58,15 @@ bool SolveDifferenceSystem(const std::vector<int>& nodes,
     for (int d = 0; d < dim; ++d) {
       if (edges[e].first != reference) {
         triplets.emplace_back(
-            dim * e + d, dim * column.at(edges[e].first) + d, edge_weights[e]);
+            dim * e + d, dim * column(edges[e].first) + d, edge_weights[e]);
       }
       if (edges[e].second != reference) {
-        triplets.emplace_back(dim * e + d,
-                              dim * column.at(edges[e].second) + d,
-                              -edge_weights[e]);
+        triplets.emplace_back(
+            dim * e + d, dim * column(edges[e].second) + d, -edge_weights[e]);
       }
     }
   }
-  Eigen::SparseMatrix<double> A(dim * edges.size(), dim * column.size());
+  Eigen::SparseMatrix<double> A(dim * edges.size(), dim * (num_nodes - 1));
   A.setFromTriplets(triplets.begin(), triplets.end());
   Eigen::VectorXd weighted_b = b;
   for (size_t e = 0; e < edges.size(); ++e) {
@@ -73,10 +83,9 @@ bool SolveDifferenceSystem(const std::vector<int>& nodes,
     return false;
   }
 
-  for (size_t k = 0; k < nodes.size(); ++k) {
-    if (nodes[k] != reference) {
-      x->segment(dim * k, dim) =
-          solution.segment(dim * column.at(nodes[k]), dim);
+  for (int node = 0; node < num_nodes; ++node) {
+    if (node != reference) {
+      x->segment(dim * node, dim) = solution.segment(dim * column(node), dim);
     }
   }
   return true;
@@ -103,15 +112,18 @@ bool AveragePart(const std::vector<int>& nodes,
                  const std::vector<const RelativeSimilarity*>& edges,
                  const std::vector<double>& edge_weights,
                  const int reference,
-                 const SimilarityAveragingOptions& options,
                  std::vector<Sim3d>* world_from_community) {
+  // The part's nodes and edges by their index in `nodes`.
+  const int num_nodes = static_cast<int>(nodes.size());
   std::map<int, int> local;
-  for (size_t k = 0; k < nodes.size(); ++k) {
-    local.emplace(nodes[k], static_cast<int>(k));
+  for (int k = 0; k < num_nodes; ++k) {
+    local.emplace(nodes[k], k);
   }
+  const int local_reference = local.at(reference);
   std::vector<std::pair<int, int>> edge_nodes;
   for (const RelativeSimilarity* edge : edges) {
-    edge_nodes.emplace_back(edge->community1, edge->community2);
+    edge_nodes.emplace_back(local.at(edge->community1),
+                            local.at(edge->community2));
   }
 
   // 1. Scale: log s_i - log s_j = log s_ij.
@@ -121,11 +133,11 @@ bool AveragePart(const std::vector<int>& nodes,
     for (size_t e = 0; e < edges.size(); ++e) {
       b(e) = std::log(edges[e]->second_from_first.scale());
     }
-    if (!SolveDifferenceSystem(nodes,
+    if (!SolveDifferenceSystem(num_nodes,
                                edge_nodes,
                                edge_weights,
                                /*dim=*/1,
-                               reference,
+                               local_reference,
                                b,
                                &log_scales)) {
       return false;
@@ -139,16 +151,15 @@ bool AveragePart(const std::vector<int>& nodes,
     std::vector<RelativeRotation> relative_rotations;
     for (size_t e = 0; e < edges.size(); ++e) {
       RelativeRotation relative_rotation;
-      relative_rotation.node1 = local.at(edges[e]->community1);
-      relative_rotation.node2 = local.at(edges[e]->community2);
+      relative_rotation.node1 = edge_nodes[e].first;
+      relative_rotation.node2 = edge_nodes[e].second;
       relative_rotation.rotation = edges[e]->second_from_first.rotation();
       relative_rotation.weight = edge_weights[e];
       relative_rotations.push_back(relative_rotation);
     }
-    if (!AverageRotations(static_cast<int>(nodes.size()),
+    if (!AverageRotations(num_nodes,
                           relative_rotations,
-                          local.at(reference),
-                          options.rotation,
+                          local_reference,
                           &community_from_world)) {
       return false;
     }
@@ -169,11 +180,11 @@ bool AveragePart(const std::vector<int>& nodes,
                                (*world_from_community)[edges[e]->community2]);
   }
   Eigen::VectorXd translations;
-  if (!SolveDifferenceSystem(nodes,
+  if (!SolveDifferenceSystem(num_nodes,
                              edge_nodes,
                              edge_weights,
                              /*dim=*/3,
-                             reference,
+                             local_reference,
                              b,
                              &translations)) {
     return false;
@@ -185,13 +196,11 @@ bool AveragePart(const std::vector<int>& nodes,
   return true;
 }
 
-}  // namespace
-
+// The residuals of `edge` under the placement `world_from_community`, as
+// the averaging judges its edges (see EdgeReport).
 SimilarityAveragingResult::EdgeReport ComputeEdgeResiduals(
     const RelativeSimilarity& edge,
     const std::vector<Sim3d>& world_from_community) {
-  THROW_CHECK(!edge.points1.empty());
-  THROW_CHECK_EQ(edge.points1.size(), edge.points2.size());
   const Sim3d& world_from_first = world_from_community[edge.community1];
   const Sim3d& world_from_second = world_from_community[edge.community2];
   SimilarityAveragingResult::EdgeReport report;
@@ -220,46 +229,15 @@ SimilarityAveragingResult::EdgeReport ComputeEdgeResiduals(
   return report;
 }
 
-bool EdgeWithinBound(const SimilarityAveragingResult::EdgeReport& report,
-                     const double max_relative_displacement) {
-  // Written so that a non-finite displacement counts as too large.
-  return report.relative_displacement <= max_relative_displacement;
-}
-
-namespace {
-
 // Whether the images both communities of `edge` registered contradict its
-// similarity: at least two of them, and no fewer than are placed alike, are
-// placed elsewhere by the two models under it. One image placed elsewhere
-// can be one misregistered image; more, and a majority, mean that the
-// similarity or one of its models is wrong where the two overlap.
+// similarity (EdgeReport::contradicted). One image placed elsewhere can be
+// misregistered; more, and a majority, mean that the similarity or one of
+// its models is wrong where the two overlap.
 bool SharedImagesContradict(const RelativeSimilarity& edge) {
   const int num_elsewhere =
       edge.num_shared_images - edge.num_agreeing_shared_images;
   return num_elsewhere >= 2 && num_elsewhere >= edge.num_agreeing_shared_images;
 }
-
-}  // namespace
-
-bool SimilarityAveragingOptions::Check() const {
-  CHECK_OPTION(rotation.Check());
-  if (!CheckFlag(max_relative_displacement > 0,
-                 "averaging_max_relative_displacement",
-                 max_relative_displacement,
-                 "positive")) {
-    return false;
-  }
-  return true;
-}
-
-int SimilarityAveragingResult::NumParts() const {
-  return part_of_community.empty()
-             ? 0
-             : 1 + *std::max_element(part_of_community.begin(),
-                                     part_of_community.end());
-}
-
-namespace {
 
 // The weights of the edges in the averaging, in [1 - kWeightRange, 1]: their
 // order decides where a cycle's disagreement goes, while around every
@@ -301,8 +279,7 @@ struct AveragingRounds {
   std::vector<double> edge_weights;
   SimilarityAveragingResult result;
 
-  // Per round: the connected parts over the kept edges and each community's
-  // label (its component).
+  // Per round: the parts over the kept edges, each community's component.
   std::vector<std::vector<int>> parts;
   std::vector<int> component;
 
@@ -330,8 +307,7 @@ struct AveragingRounds {
            labels[relative_similarities[e].community2];
   }
 
-  // Connected parts over the kept edges, in the order of their smallest
-  // community.
+  // The parts over the kept edges, in the order of their smallest community.
   void FindParts() {
     component = ConnectedComponentLabels(NumCommunities(), KeptEdges());
     parts.clear();
@@ -351,12 +327,11 @@ struct AveragingRounds {
   bool AverageParts() {
     bool failed = false;
     for (const std::vector<int>& nodes : parts) {
-      int reference = nodes.front();
-      for (const int node : nodes) {
-        if (communities[node].num_images > communities[reference].num_images) {
-          reference = node;
-        }
-      }
+      // The first of the largest communities.
+      const int reference = *std::max_element(
+          nodes.begin(), nodes.end(), [&](const int a, const int b) {
+            return communities[a].num_images < communities[b].num_images;
+          });
       std::vector<const RelativeSimilarity*> edges;
       std::vector<double> weights;
       std::vector<size_t> edge_indices;
@@ -369,12 +344,8 @@ struct AveragingRounds {
           edge_indices.push_back(e);
         }
       }
-      if (AveragePart(nodes,
-                      edges,
-                      weights,
-                      reference,
-                      options,
-                      &result.world_from_community)) {
+      if (AveragePart(
+              nodes, edges, weights, reference, &result.world_from_community)) {
         continue;
       }
       LOG(WARNING) << "Similarity averaging failed for a part of "
@@ -390,9 +361,8 @@ struct AveragingRounds {
     return !failed;
   }
 
-  // Rejects, in each part, the kept edge on a cycle furthest beyond the
-  // bound, and every edge whose displacement is not finite. Returns whether
-  // any edge went.
+  // Rejects each part's kept edge on a cycle furthest beyond the bound, and
+  // every edge whose displacement is not finite. Whether any edge went.
   bool RejectWorstEdges() {
     std::map<int, std::pair<double, size_t>> worst_of_part;  // By label.
     bool rejected = false;
@@ -404,7 +374,8 @@ struct AveragingRounds {
       result.edges[e] = ComputeEdgeResiduals(edge, result.world_from_community);
       result.edges[e].kept = true;
       const double displacement = result.edges[e].relative_displacement;
-      if (EdgeWithinBound(result.edges[e], options.max_relative_displacement)) {
+      // Written so that a non-finite displacement counts as too large.
+      if (displacement <= options.max_relative_displacement) {
         continue;
       }
       if (!std::isfinite(displacement)) {
@@ -433,11 +404,9 @@ struct AveragingRounds {
     return rejected;
   }
 
-  // Edges that no cycle of kept edges checks (bridges): the averaging fits
-  // them as they are, right or wrong, so the images both models registered
-  // must confirm such an edge. Two sound communities can be joined by wrong
-  // matches alone: their similarity then rests on few inliers among many
-  // correspondences and on no shared image; kept, it misplaces the whole
+  // Bridges (edges no cycle of kept edges checks) are fitted as they are,
+  // right or wrong: the shared images must confirm them. A wrong bridge
+  // (two communities joined by wrong matches alone) misplaces the whole
   // weaker community. Returns whether a bridge was dropped.
   bool DropUnconfirmedBridges() {
     bool dropped_bridge = false;
@@ -461,8 +430,7 @@ struct AveragingRounds {
     return dropped_bridge;
   }
 
-  // Numbers the parts by total size, largest first (ties: smallest
-  // community).
+  // Numbers the parts by size, largest first (ties: smallest community).
   void NumberParts() {
     const auto PartSize = [&](const std::vector<int>& nodes) {
       int size = 0;

@@ -22,7 +22,6 @@
 #pragma once
 
 #include "colmap_ext/merge/pairwise_similarity.h"
-#include "colmap_ext/merge/rotation_averaging.h"
 
 #include "colmap/geometry/sim3.h"
 #include "colmap/util/eigen_alignment.h"
@@ -40,20 +39,14 @@ inline constexpr int kFullSupportNumInliers = 100;
 
 // A community as the averaging sees it.
 struct AveragedCommunity {
-  // Registered images of its model: the most its edges can weigh (see
-  // RelativeSimilarity::num_supporting_images). The largest community of
-  // each part is the part's reference.
+  // Registered images of its model: the most its edges can weigh; the
+  // largest community of each part is the part's reference.
   int num_images = 0;
 };
 
 struct SimilarityAveragingOptions {
-  // Rotation averaging (L1RA + IRLS).
-  RotationAveragingOptions rotation;
-
-  // An edge on a cycle is rejected when, after averaging, the median
-  // distance between the two placements of its inlier points exceeds this
-  // fraction of their spread (EdgeReport::relative_displacement), the worst
-  // of each part first.
+  // An edge on a cycle is rejected, the worst of each part first, when its
+  // EdgeReport::relative_displacement after averaging exceeds this.
   double max_relative_displacement = 0.2;
 
   bool Check() const;
@@ -71,13 +64,11 @@ struct SimilarityAveragingResult {
     double log_scale_residual = 0.0;
     // Whether the edge joins its communities in the result.
     bool kept = false;
-    // Left out from the start: the images both communities registered
-    // contradict it (at least two, and no fewer than are placed alike, are
-    // placed elsewhere by the two models under its similarity).
+    // Left out from the start: its shared images contradict it (at least
+    // two, and no fewer than are placed alike, are placed elsewhere).
     bool contradicted = false;
-    // Dropped because nothing confirms it: no cycle of kept edges passes
-    // through it, and fewer than two of its shared images are placed alike
-    // (without kFullSupportNumInliers inliers to stand in for them).
+    // Dropped as on no cycle of kept edges, with fewer than two shared
+    // images placed alike (and fewer than kFullSupportNumInliers inliers).
     bool unconfirmed = false;
   };
 
@@ -91,18 +82,6 @@ struct SimilarityAveragingResult {
 
   int NumParts() const;
 };
-
-// The residuals of `edge` under the placement `world_from_community`
-// (indexed by community), as the averaging judges its edges (see
-// EdgeReport).
-SimilarityAveragingResult::EdgeReport ComputeEdgeResiduals(
-    const RelativeSimilarity& edge,
-    const std::vector<Sim3d>& world_from_community);
-
-// Whether the displacement of `report` is within `max_relative_displacement`
-// (a non-finite one is not).
-bool EdgeWithinBound(const SimilarityAveragingResult::EdgeReport& report,
-                     double max_relative_displacement);
 
 // Averages the relative similarities of communities 0..N-1. Every edge
 // carries its inlier points.

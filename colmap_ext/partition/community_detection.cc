@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <map>
-#include <numeric>
 
 #include <igraph.h>
 
@@ -38,56 +37,9 @@ using IgraphIntVector =
     IgraphObject<igraph_vector_int_t, igraph_vector_int_destroy>;
 using IgraphRealVector = IgraphObject<igraph_vector_t, igraph_vector_destroy>;
 
-// igraph aborts the process on errors by default; report them as error codes
-// instead, which IGRAPH_CALL turns into exceptions.
-void UseIgraphErrorCodes() {
-  static const bool kInitialized = [] {
-    igraph_set_error_handler(igraph_error_handler_ignore);
-    igraph_set_warning_handler(igraph_warning_handler_ignore);
-    return true;
-  }();
-  (void)kInitialized;
-}
-
-// Sums the weights of parallel edges and drops self-loops: CNM needs a
-// simple graph.
-std::vector<WeightedGraph::Edge> SimpleEdges(const WeightedGraph& graph) {
-  std::map<std::pair<int, int>, double> weights;
-  for (const auto& edge : graph.edges) {
-    if (edge.vertex1 == edge.vertex2) {
-      continue;
-    }
-    THROW_CHECK_GT(edge.weight, 0.0) << "Edge weights must be positive.";
-    weights[std::minmax(edge.vertex1, edge.vertex2)] += edge.weight;
-  }
-  std::vector<WeightedGraph::Edge> edges;
-  edges.reserve(weights.size());
-  for (const auto& pair_and_weight : weights) {
-    edges.push_back({pair_and_weight.first.first,
-                     pair_and_weight.first.second,
-                     pair_and_weight.second});
-  }
-  return edges;
-}
-
 // Relabels communities to 0..K-1, largest first, ties by smallest vertex.
 std::vector<int> RelabelBySize(const std::vector<int>& membership) {
-  std::map<int, std::vector<int>> members;
-  for (size_t vertex = 0; vertex < membership.size(); ++vertex) {
-    members[membership[vertex]].push_back(static_cast<int>(vertex));
-  }
-  std::vector<std::vector<int>> communities;
-  for (auto& label_and_members : members) {
-    communities.push_back(std::move(label_and_members.second));
-  }
-  std::sort(communities.begin(),
-            communities.end(),
-            [](const std::vector<int>& a, const std::vector<int>& b) {
-              if (a.size() != b.size()) {
-                return a.size() > b.size();
-              }
-              return a.front() < b.front();
-            });
+  const std::vector<std::vector<int>> communities = GroupVertices(membership);
   std::vector<int> relabeled(membership.size(), -1);
   for (size_t label = 0; label < communities.size(); ++label) {
     for (const int vertex : communities[label]) {
@@ -122,11 +74,10 @@ void MergeSmallCommunities(const WeightedGraph& graph,
   while (true) {
     // The smallest community below min_size that has a neighbour.
     int label = -1;
-    for (const auto& label_and_size : sizes) {
-      if (label_and_size.second < min_size &&
-          !num_cross_edges[label_and_size.first].empty() &&
-          (label == -1 || label_and_size.second < sizes.at(label))) {
-        label = label_and_size.first;
+    for (const auto& [candidate, size] : sizes) {
+      if (size < min_size && !num_cross_edges[candidate].empty() &&
+          (label == -1 || size < sizes.at(label))) {
+        label = candidate;
       }
     }
     if (label == -1) {
@@ -134,9 +85,7 @@ void MergeSmallCommunities(const WeightedGraph& graph,
     }
 
     int target = -1;
-    for (const auto& other_and_count : num_cross_edges.at(label)) {
-      const int other = other_and_count.first;
-      const int count = other_and_count.second;
+    for (const auto& [other, count] : num_cross_edges.at(label)) {
       if (target == -1 || count > num_cross_edges.at(label).at(target) ||
           (count == num_cross_edges.at(label).at(target) &&
            sizes.at(other) > sizes.at(target))) {
@@ -145,12 +94,11 @@ void MergeSmallCommunities(const WeightedGraph& graph,
     }
 
     // Move the cross edges of `label` to `target`.
-    for (const auto& other_and_count : num_cross_edges.at(label)) {
-      const int other = other_and_count.first;
+    for (const auto& [other, count] : num_cross_edges.at(label)) {
       num_cross_edges[other].erase(label);
       if (other != target) {
-        num_cross_edges[target][other] += other_and_count.second;
-        num_cross_edges[other][target] += other_and_count.second;
+        num_cross_edges[target][other] += count;
+        num_cross_edges[other][target] += count;
       }
     }
     num_cross_edges.erase(label);
@@ -198,8 +146,20 @@ double MaxPartConductance(const WeightedGraph& graph,
 
 GraphPartitioner::Result GreedyModularityPartitioner::Partition(
     const WeightedGraph& graph) const {
-  UseIgraphErrorCodes();
-  const std::vector<WeightedGraph::Edge> edges = SimpleEdges(graph);
+  // igraph aborts the process on errors by default; report them as error
+  // codes instead, which IGRAPH_CALL turns into exceptions.
+  [[maybe_unused]] static const bool kIgraphErrorCodes = [] {
+    igraph_set_error_handler(igraph_error_handler_ignore);
+    igraph_set_warning_handler(igraph_warning_handler_ignore);
+    return true;
+  }();
+  for (const auto& edge : graph.edges) {
+    if (edge.vertex1 != edge.vertex2) {
+      THROW_CHECK_GT(edge.weight, 0.0) << "Edge weights must be positive.";
+    }
+  }
+  // CNM needs a simple graph.
+  const std::vector<WeightedGraph::Edge> edges = graph.Simplified().edges;
   THROW_CHECK_GE(graph.num_vertices, 2);
   THROW_CHECK(!edges.empty());
 
@@ -316,7 +276,6 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
     pending.pop_back();
 
     const WeightedGraph subgraph = graph.InducedSubgraph(current.vertices);
-    bool split = false;
     if (subgraph.num_vertices >= 2 && !subgraph.edges.empty() &&
         current.depth < kMaxRecursionDepth) {
       const GraphPartitioner::Result result = partitioner.Partition(subgraph);
@@ -364,14 +323,13 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
                      : "kept as one community"));
 
       if (record.accepted) {
-        split = true;
         std::vector<std::vector<int>> parts(result.num_communities);
         for (int i = 0; i < subgraph.num_vertices; ++i) {
           parts[result.membership[i]].push_back(current.vertices[i]);
         }
         // A partitioner may return a community that is not connected; each
         // of its connected pieces is a community of its own.
-        std::vector<Pending> children;
+        const size_t num_pending = pending.size();
         for (const std::vector<int>& part : parts) {
           const WeightedGraph part_graph = graph.InducedSubgraph(part);
           for (const std::vector<int>& piece :
@@ -383,20 +341,18 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
             for (const int i : piece) {
               child.vertices.push_back(part[i]);
             }
-            children.push_back(std::move(child));
+            pending.push_back(std::move(child));
           }
         }
-        for (auto it = children.rbegin(); it != children.rend(); ++it) {
-          pending.push_back(std::move(*it));
-        }
+        // Last pushed, first handled: the first piece first.
+        std::reverse(pending.begin() + num_pending, pending.end());
+        continue;
       }
     }
-    if (!split) {
-      for (const int vertex : current.vertices) {
-        partition.membership[vertex] = num_final;
-      }
-      ++num_final;
+    for (const int vertex : current.vertices) {
+      partition.membership[vertex] = num_final;
     }
+    ++num_final;
   }
 
   partition.num_communities_before_merge = num_final;
@@ -433,11 +389,10 @@ std::vector<std::vector<int>> ExtendCommunities(
     // Links (edge count, summed weight) of outside vertices to the inside.
     std::map<int, std::pair<int, double>> links;
     auto add_links = [&](const int vertex) {
-      for (const auto& neighbor : adjacency[vertex]) {
-        if (!inside[neighbor.first]) {
-          auto& link = links[neighbor.first];
-          link.first += 1;
-          link.second += neighbor.second;
+      for (const auto& [neighbor, weight] : adjacency[vertex]) {
+        if (!inside[neighbor]) {
+          ++links[neighbor].first;
+          links[neighbor].second += weight;
         }
       }
     };
@@ -447,15 +402,11 @@ std::vector<std::vector<int>> ExtendCommunities(
     std::map<int, int> num_added;  // per neighbouring community
     while (true) {
       int best = -1;
-      for (const auto& vertex_and_link : links) {
-        const int vertex = vertex_and_link.first;
-        if (inside[vertex] ||
-            num_added[membership[vertex]] >= num_overlap_images) {
-          continue;
-        }
-        if (best == -1 || vertex_and_link.second.first > links[best].first ||
-            (vertex_and_link.second.first == links[best].first &&
-             vertex_and_link.second.second > links[best].second)) {
+      for (const auto& [vertex, link] : links) {
+        // More edges, then a larger summed weight.
+        if (!inside[vertex] &&
+            num_added[membership[vertex]] < num_overlap_images &&
+            (best == -1 || link > links[best])) {
           best = vertex;
         }
       }

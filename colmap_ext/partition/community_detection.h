@@ -1,26 +1,19 @@
 // Community detection on the view graph.
 //
 // CSfM (Cui et al., ICIP 2017), section 2: greedy modularity maximisation
-// (Clauset, Newman and Moore, Phys. Rev. E 70, 2004) cuts the graph at its
-// peak modularity Q_max, where
+// (Clauset, Newman and Moore, Phys. Rev. E 70, 2004) cuts each connected
+// component recursively at its peak modularity Q_max, where
 //     Q = 1/(2m) sum_ij (A_ij - d_i d_j / (2m)) delta(U_i, U_j),
-// only where Q_max exceeds a threshold (0.3), recursively; communities under
-// N images (20) join the neighbour with the most edges to them. Two rules are
-// added: a split is made only where its parts are communities (conductance at
-// most max_part_conductance: a chain of overlapping views beats modularity's
-// random graph without community structure), and a (sub)graph holding more
-// than max_community_fraction of its component is split at its peak once all
-// the same, so that no community sets the pace of the run alone. Each
-// connected component is handled on its own; a `GraphPartitioner` splits one
-// level, so that another algorithm (Leiden, say) can take greedy modularity's
-// place.
+// only where Q_max exceeds a threshold (0.3); communities under N images (20)
+// join the neighbour with the most edges to them. Two rules are added
+// (CommunityDetectionOptions): max_part_conductance and
+// max_community_fraction. A `GraphPartitioner` splits one level, so that
+// another algorithm (Leiden, say) can take greedy modularity's place.
 
 #pragma once
 
 #include "colmap_ext/partition/view_graph.h"
 
-#include <memory>
-#include <string>
 #include <vector>
 
 namespace colmap {
@@ -38,9 +31,6 @@ class GraphPartitioner {
 
   virtual ~GraphPartitioner() = default;
 
-  // The name of the algorithm, for the log.
-  virtual std::string Name() const = 0;
-
   // The graph has at least two vertices and at least one edge.
   virtual Result Partition(const WeightedGraph& graph) const = 0;
 };
@@ -49,7 +39,6 @@ class GraphPartitioner {
 // taking the dendrogram cut at Q_max. Uses the graph's edge weights.
 class GreedyModularityPartitioner : public GraphPartitioner {
  public:
-  std::string Name() const override { return "greedy modularity (CNM)"; }
   Result Partition(const WeightedGraph& graph) const override;
 };
 
@@ -62,27 +51,22 @@ struct CommunityDetectionOptions {
 
   // A (sub)graph holding more than this fraction of its connected component
   // is split at its modularity peak even where the peak is below the
-  // threshold or a part of it is no community (max_part_conductance), if
-  // at least two of the parts reach min_community_size. The communities
-  // are reconstructed in parallel and the largest sets the pace, and the
-  // threshold alone can leave most of a scene in one community (after
-  // exhaustive matching nearly every pair is verified). A graph without
-  // community structure is cut where its edges are densest, which gives
-  // the merge strong links. The parts of such a split (and their parts)
-  // are not split by this rule again: a part whose own peak says it has no
-  // structure, cut anyway, can give a community that its mapper breaks into
+  // threshold or a part is no community (max_part_conductance), if at least
+  // two parts reach min_community_size: the communities are reconstructed in
+  // parallel and the largest sets the pace, and after exhaustive matching
+  // the threshold alone can leave most of a scene in one community; the cut
+  // where the edges are densest gives the merge strong links. The parts of
+  // such a split are not split by this rule again: a part without
+  // structure, cut anyway, can give a community its mapper breaks into
   // several models. 1: split by the threshold only, as the paper.
   double max_community_fraction = 0.5;
 
-  // A split by the threshold is refused where one of its parts (counted
-  // with the parts under min_community_size that would join it) has a
-  // conductance above this within the split graph, i.e. more than this
-  // share of the weight of its edges' endpoints leads to its siblings. A
-  // chain of overlapping views reaches the threshold without community
-  // structure: on an open chain of landmark clusters the threshold alone
-  // cuts clusters in two and leaves short walkway pieces standing alone, so
-  // that images which belong together end up in models the merge must join
-  // again; clear splits, with few edges between their parts, still stand.
+  // A split by the threshold is refused where one of its parts (with the
+  // parts under min_community_size that would join it) has a conductance
+  // above this within the split graph. A chain of overlapping views reaches
+  // the threshold without community structure: on an open chain of landmark
+  // clusters the threshold alone cuts clusters in two and leaves walkway
+  // pieces alone, for the merge to join again; clear splits still stand.
   // 1: the threshold alone, as the paper.
   double max_part_conductance = 0.3;
 
@@ -131,15 +115,13 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
                                      const CommunityDetectionOptions& options);
 
 // Extends every community by images of its neighbours, so that neighbouring
-// communities share some images and their reconstructions share points (an
-// extension of CSfM, which relies on cross edges alone; COLMAP's hierarchical
-// mapper overlaps its clusters too). For each pair of neighbouring
-// communities C and N, up to `num_overlap_images` images of N are added to C,
-// greedily: the next is the image of N with the most edges to C and the
-// images already added (ties: larger summed edge weight, then smaller
-// vertex), so that the additions grow from the border along the strongest
-// connections. Returns, per community, its vertices (its own first, in
-// ascending order, then the added ones).
+// communities share images and their reconstructions share points (CSfM
+// relies on cross edges alone; COLMAP's hierarchical mapper overlaps its
+// clusters too). Up to `num_overlap_images` images of each neighbour are
+// added greedily, each the outside image with the most edges to the
+// community so far (ties: larger summed weight, then smaller vertex): the
+// additions grow from the border along the strongest connections. Returns,
+// per community, its own vertices (ascending), then the added ones.
 std::vector<std::vector<int>> ExtendCommunities(
     const WeightedGraph& graph,
     const CommunityPartition& partition,

@@ -292,7 +292,6 @@ class FractionPartitioner : public GraphPartitioner {
  public:
   explicit FractionPartitioner(double modularity, double fraction = 0.5)
       : modularity_(modularity), fraction_(fraction) {}
-  std::string Name() const override { return "fraction"; }
   Result Partition(const WeightedGraph& graph) const override {
     Result result;
     result.membership.assign(graph.num_vertices, 0);

@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <map>
-#include <numeric>
 
 namespace colmap {
 
@@ -30,27 +29,45 @@ WeightedGraph WeightedGraph::InducedSubgraph(
   return subgraph;
 }
 
-std::vector<std::vector<int>> WeightedGraph::ConnectedComponents() const {
-  DisjointSets sets(num_vertices);
+WeightedGraph WeightedGraph::Simplified() const {
+  std::map<std::pair<int, int>, double> weights;
   for (const Edge& edge : edges) {
-    sets.Union(edge.vertex1, edge.vertex2);
+    if (edge.vertex1 != edge.vertex2) {
+      weights[std::minmax(edge.vertex1, edge.vertex2)] += edge.weight;
+    }
   }
+  WeightedGraph graph;
+  graph.num_vertices = num_vertices;
+  for (const auto& [vertices, weight] : weights) {
+    graph.edges.push_back({vertices.first, vertices.second, weight});
+  }
+  return graph;
+}
 
-  std::map<int, std::vector<int>> components_by_root;
-  for (int vertex = 0; vertex < num_vertices; ++vertex) {
-    components_by_root[sets.Find(vertex)].push_back(vertex);
+std::vector<std::vector<int>> WeightedGraph::ConnectedComponents() const {
+  std::vector<std::pair<int, int>> vertex_pairs;
+  for (const Edge& edge : edges) {
+    vertex_pairs.emplace_back(edge.vertex1, edge.vertex2);
   }
-  std::vector<std::vector<int>> components;
-  components.reserve(components_by_root.size());
-  for (auto& root_and_component : components_by_root) {
-    components.push_back(std::move(root_and_component.second));
+  return GroupVertices(ConnectedComponentLabels(num_vertices, vertex_pairs));
+}
+
+std::vector<std::vector<int>> GroupVertices(const std::vector<int>& labels) {
+  std::map<int, std::vector<int>> groups_by_label;
+  for (size_t vertex = 0; vertex < labels.size(); ++vertex) {
+    groups_by_label[labels[vertex]].push_back(static_cast<int>(vertex));
   }
-  std::stable_sort(components.begin(),
-                   components.end(),
-                   [](const std::vector<int>& a, const std::vector<int>& b) {
-                     return a.size() > b.size();
-                   });
-  return components;
+  std::vector<std::vector<int>> groups;
+  for (auto& [label, group] : groups_by_label) {
+    groups.push_back(std::move(group));
+  }
+  std::sort(groups.begin(),
+            groups.end(),
+            [](const std::vector<int>& a, const std::vector<int>& b) {
+              return a.size() != b.size() ? a.size() > b.size()
+                                          : a.front() < b.front();
+            });
+  return groups;
 }
 
 ViewGraphEdgeWeight ViewGraphEdgeWeightFromString(const std::string& name) {
@@ -77,39 +94,29 @@ std::string ViewGraphEdgeWeightToString(const ViewGraphEdgeWeight weight) {
 ViewGraph ViewGraph::Read(const Database& database,
                           const int min_num_matches,
                           const std::unordered_set<std::string>& image_names) {
-  std::vector<std::pair<image_t, image_t>> image_pairs;
-  std::vector<int> num_inliers;
-  for (const auto& [pair_id, pair_num_inliers] :
-       database.ReadTwoViewGeometryNumInliers()) {
-    image_pairs.push_back(PairIdToImagePair(pair_id));
-    num_inliers.push_back(pair_num_inliers);
-  }
-  // The pairs read are those with inliers; the database counts all.
-  const size_t num_failed_pairs =
-      database.NumVerifiedImagePairs() - image_pairs.size();
-
   std::unordered_map<image_t, std::string> name_of_image;
   for (const Image& image : database.ReadAllImages()) {
     if (image_names.empty() || image_names.count(image.Name()) > 0) {
       name_of_image.emplace(image.ImageId(), image.Name());
     }
   }
-  if (!image_names.empty()) {
-    size_t num_kept = 0;
-    for (size_t i = 0; i < image_pairs.size(); ++i) {
-      if (name_of_image.count(image_pairs[i].first) > 0 &&
-          name_of_image.count(image_pairs[i].second) > 0) {
-        image_pairs[num_kept] = image_pairs[i];
-        num_inliers[num_kept] = num_inliers[i];
-        ++num_kept;
-      }
+  const std::vector<std::pair<image_pair_t, int>> all_num_inliers =
+      database.ReadTwoViewGeometryNumInliers();
+  std::vector<std::pair<image_t, image_t>> image_pairs;
+  std::vector<int> num_inliers;
+  for (const auto& [pair_id, pair_num_inliers] : all_num_inliers) {
+    const std::pair<image_t, image_t> image_pair = PairIdToImagePair(pair_id);
+    if (image_names.empty() || (name_of_image.count(image_pair.first) > 0 &&
+                                name_of_image.count(image_pair.second) > 0)) {
+      image_pairs.push_back(image_pair);
+      num_inliers.push_back(pair_num_inliers);
     }
-    image_pairs.resize(num_kept);
-    num_inliers.resize(num_kept);
   }
   ViewGraph view_graph =
       Create(image_pairs, num_inliers, min_num_matches, name_of_image);
-  view_graph.num_failed_pairs_ = num_failed_pairs;
+  // The pairs read are those with inliers; the database counts all.
+  view_graph.num_failed_pairs_ =
+      database.NumVerifiedImagePairs() - all_num_inliers.size();
   std::unordered_map<image_t, frame_t> frame_of_image;
   for (const Frame& frame : database.ReadAllFrames()) {
     for (const data_t& data_id : frame.ImageIds()) {
@@ -132,13 +139,10 @@ ViewGraph ViewGraph::Create(
   // has one entry per pair anyway.
   std::map<std::pair<image_t, image_t>, int> pair_to_num_inliers;
   for (size_t i = 0; i < image_pairs.size(); ++i) {
-    image_t image_id1 = image_pairs[i].first;
-    image_t image_id2 = image_pairs[i].second;
+    const auto [image_id1, image_id2] =
+        std::minmax(image_pairs[i].first, image_pairs[i].second);
     if (image_id1 == image_id2 || num_inliers[i] < min_num_matches) {
       continue;
-    }
-    if (image_id1 > image_id2) {
-      std::swap(image_id1, image_id2);
     }
     int& pair_num_inliers = pair_to_num_inliers[{image_id1, image_id2}];
     pair_num_inliers = std::max(pair_num_inliers, num_inliers[i]);
@@ -147,37 +151,26 @@ ViewGraph ViewGraph::Create(
   // Vertices in ascending image id order, so that the graph does not depend
   // on the order in which the database returns the pairs.
   ViewGraph graph;
+  std::map<image_t, int> vertex_of_image;
   for (const auto& pair_and_num_inliers : pair_to_num_inliers) {
-    graph.image_ids_.push_back(pair_and_num_inliers.first.first);
-    graph.image_ids_.push_back(pair_and_num_inliers.first.second);
+    vertex_of_image.emplace(pair_and_num_inliers.first.first, 0);
+    vertex_of_image.emplace(pair_and_num_inliers.first.second, 0);
   }
-  std::sort(graph.image_ids_.begin(), graph.image_ids_.end());
-  graph.image_ids_.erase(
-      std::unique(graph.image_ids_.begin(), graph.image_ids_.end()),
-      graph.image_ids_.end());
-  std::unordered_map<image_t, int> image_id_to_vertex;
-  for (size_t vertex = 0; vertex < graph.image_ids_.size(); ++vertex) {
-    image_id_to_vertex.emplace(graph.image_ids_[vertex],
-                               static_cast<int>(vertex));
-  }
-
-  graph.edges_.reserve(pair_to_num_inliers.size());
-  for (const auto& pair_and_num_inliers : pair_to_num_inliers) {
-    graph.edges_.push_back(
-        {image_id_to_vertex.at(pair_and_num_inliers.first.first),
-         image_id_to_vertex.at(pair_and_num_inliers.first.second),
-         pair_and_num_inliers.second});
-  }
-
-  graph.SetFrames({});
-
-  graph.image_names_.reserve(graph.image_ids_.size());
-  for (const image_t image_id : graph.image_ids_) {
+  for (auto& [image_id, vertex] : vertex_of_image) {
+    vertex = static_cast<int>(graph.image_ids_.size());
+    graph.image_ids_.push_back(image_id);
     const auto it = image_names.find(image_id);
     graph.image_names_.push_back(it != image_names.end()
                                      ? it->second
                                      : "image" + std::to_string(image_id));
   }
+  graph.edges_.reserve(pair_to_num_inliers.size());
+  for (const auto& [image_pair, pair_num_inliers] : pair_to_num_inliers) {
+    graph.edges_.push_back({vertex_of_image.at(image_pair.first),
+                            vertex_of_image.at(image_pair.second),
+                            pair_num_inliers});
+  }
+  graph.SetFrames({});
   return graph;
 }
 
@@ -216,8 +209,9 @@ void ViewGraph::SetFrames(
 }
 
 WeightedGraph ViewGraph::ToFrameGraph(const ViewGraphEdgeWeight weight) const {
+  WeightedGraph graph = ToWeightedGraph(weight);
   if (frame_vertices_.size() == image_ids_.size()) {
-    return ToWeightedGraph(weight);
+    return graph;
   }
   std::vector<int> frame_of_vertex(image_ids_.size());
   for (size_t frame = 0; frame < frame_vertices_.size(); ++frame) {
@@ -225,24 +219,12 @@ WeightedGraph ViewGraph::ToFrameGraph(const ViewGraphEdgeWeight weight) const {
       frame_of_vertex[vertex] = static_cast<int>(frame);
     }
   }
-  std::map<std::pair<int, int>, double> weight_of_frame_pair;
-  for (const WeightedGraph::Edge& edge : ToWeightedGraph(weight).edges) {
-    int frame1 = frame_of_vertex[edge.vertex1];
-    int frame2 = frame_of_vertex[edge.vertex2];
-    if (frame1 == frame2) {
-      continue;
-    }
-    if (frame1 > frame2) {
-      std::swap(frame1, frame2);
-    }
-    weight_of_frame_pair[{frame1, frame2}] += edge.weight;
-  }
-  WeightedGraph graph;
   graph.num_vertices = static_cast<int>(frame_vertices_.size());
-  for (const auto& [frames, frame_pair_weight] : weight_of_frame_pair) {
-    graph.edges.push_back({frames.first, frames.second, frame_pair_weight});
+  for (WeightedGraph::Edge& edge : graph.edges) {
+    edge.vertex1 = frame_of_vertex[edge.vertex1];
+    edge.vertex2 = frame_of_vertex[edge.vertex2];
   }
-  return graph;
+  return graph.Simplified();
 }
 
 }  // namespace colmap

@@ -36,7 +36,15 @@ struct WeightedGraph {
   // The connected components as lists of vertices, largest first, each list
   // sorted ascending.
   std::vector<std::vector<int>> ConnectedComponents() const;
+
+  // The graph with parallel edges joined (weights summed) and self-loops
+  // dropped, edges ordered by their (smaller, larger) vertex pair.
+  WeightedGraph Simplified() const;
 };
+
+// The vertices of each label (`labels[vertex]`), each group ascending, the
+// largest first (ties: the smaller first vertex first).
+std::vector<std::vector<int>> GroupVertices(const std::vector<int>& labels);
 
 // How the view graph's edges are weighted for community detection.
 enum class ViewGraphEdgeWeight {

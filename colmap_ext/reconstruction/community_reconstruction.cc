@@ -7,7 +7,6 @@
 #include "colmap/math/random.h"
 #include "colmap/scene/database.h"
 #include "colmap/scene/database_cache.h"
-#include "colmap/scene/reconstruction_manager.h"
 #include "colmap/util/logging.h"
 
 #include <algorithm>
@@ -62,10 +61,8 @@ CommunityReconstruction ReconstructCommunityModels(
   // The correspondence graph's construction freed a vector per keypoint.
   ReleaseFreedMemory();
 
-  // COLMAP's incremental pipeline as `colmap mapper` runs it, with its
-  // relaxations of the initialization where images remain unregistered. It
-  // keeps a copy of the cache of the images it is asked for (the same
-  // ones), and this one is released once it is made.
+  // COLMAP's incremental pipeline as `colmap mapper` runs it. It keeps a copy
+  // of the cache (of the same images); this one is released once it is made.
   auto pipeline_options =
       std::make_shared<IncrementalPipelineOptions>(*options);
   pipeline_options->image_path = image_path;
@@ -91,12 +88,10 @@ CommunityReconstruction ReconstructCommunityModels(
     models.push_back(reconstruction_manager->Get(i));
   }
   // Largest first; of equal ones, the one the mapper made first.
-  std::stable_sort(models.begin(),
-                   models.end(),
-                   [](const std::shared_ptr<Reconstruction>& a,
-                      const std::shared_ptr<Reconstruction>& b) {
-                     return a->NumRegImages() > b->NumRegImages();
-                   });
+  std::stable_sort(
+      models.begin(), models.end(), [](const auto& a, const auto& b) {
+        return a->NumRegImages() > b->NumRegImages();
+      });
   if (!models.empty()) {
     result.model = models[0];
     result.other_models.assign(models.begin() + 1, models.end());

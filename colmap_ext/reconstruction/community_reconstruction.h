@@ -1,16 +1,13 @@
 // One community reconstructed by COLMAP's incremental mapper.
 //
 // CSfM (Cui et al., ICIP 2017), section 2.2: COLMAP's IncrementalPipeline on
-// the community's own and borrowed images, so that several communities, in
-// threads or processes, share one database:
-//   - only the community's pairs are loaded (filtered_database_cache.h),
-//     under `database_mutex` and retried where a load found nothing (the jobs
-//     of a cluster's array start together; database_retry.h);
-//   - the reconstructing thread's random number generator is seeded anew:
-//     the same model whichever worker, thread or process runs it;
-//   - no further model is started from fewer leftover images than
-//     Mapper.min_model_size (RoomForAnotherModel): it would be discarded after
-//     minutes of failed initializations.
+// the community's own and borrowed images, communities (in threads or
+// processes) sharing one database. Only the community's pairs are loaded
+// (filtered_database_cache.h), under `database_mutex`, retried where a load
+// found nothing (a cluster's array jobs start together; database_retry.h).
+// The thread's random number generator is seeded anew (the same model
+// whichever worker runs it), and no further model is started that would be
+// discarded after minutes of failed initializations (RoomForAnotherModel).
 // The largest model is the community's; the others are kept beside it,
 // largest first, for the merge (community_merger.h).
 
@@ -23,7 +20,6 @@
 #include <memory>
 #include <mutex>
 #include <string>
-#include <unordered_set>
 #include <vector>
 
 namespace colmap {

@@ -1,11 +1,10 @@
 #include "colmap_ext/reconstruction/filtered_database_cache.h"
 
-#include "colmap/geometry/gps.h"
+#include "colmap/feature/utils.h"
 #include "colmap/util/logging.h"
 #include "colmap/util/string.h"
 #include "colmap/util/timer.h"
 
-#include <set>
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
@@ -14,35 +13,6 @@
 
 namespace colmap {
 namespace {
-
-// Ellipsoidal (WGS84) pose priors as Cartesian ENU coordinates around the
-// first one, where all priors are WGS84 ones; other priors are left as they
-// are. Priors in more than one coordinate system are an error.
-void ConvertPosePriorsToENU(std::vector<PosePrior>* pose_priors) {
-  std::set<PosePrior::CoordinateSystem> coordinate_systems;
-  std::vector<Eigen::Vector3d> lat_lon_alt;
-  lat_lon_alt.reserve(pose_priors->size());
-  for (const PosePrior& pose_prior : *pose_priors) {
-    coordinate_systems.insert(pose_prior.coordinate_system);
-    lat_lon_alt.push_back(pose_prior.position);
-  }
-  THROW_CHECK_LE(coordinate_systems.size(), 1)
-      << "Inconsistent coordinate systems defined in pose priors";
-  if (lat_lon_alt.empty() ||
-      *coordinate_systems.begin() != PosePrior::CoordinateSystem::WGS84) {
-    return;
-  }
-  const Eigen::Vector3d& reference = lat_lon_alt.front();
-  const std::vector<Eigen::Vector3d> enu =
-      GPSTransform(GPSTransform::Ellipsoid::WGS84)
-          .EllipsoidToENU(
-              lat_lon_alt, reference(0), reference(1), reference(2));
-  for (size_t i = 0; i < pose_priors->size(); ++i) {
-    (*pose_priors)[i].position = enu[i];
-    (*pose_priors)[i].coordinate_system =
-        PosePrior::CoordinateSystem::CARTESIAN;
-  }
-}
 
 // Reads all rigs and cameras into `cache`, and all frames and images; a
 // database without rigs has one rig per camera, with the camera's id, and
@@ -66,11 +36,8 @@ void ReadRigsCamerasAndFrames(const Database& database,
     cache->AddCamera(std::move(camera));
   }
 
-  if (has_frames) {
-    for (Frame& frame : database.ReadAllFrames()) {
-      const frame_t frame_id = frame.FrameId();
-      frames->emplace(frame_id, std::move(frame));
-    }
+  for (Frame& frame : database.ReadAllFrames()) {
+    frames->emplace(frame.FrameId(), std::move(frame));
   }
   *images = database.ReadAllImages();
   for (Image& image : *images) {
@@ -141,16 +108,12 @@ std::shared_ptr<DatabaseCache> CreateFilteredDatabaseCache(
   std::unordered_map<frame_t, Frame> frames;
   std::vector<Image> images;
   ReadRigsCamerasAndFrames(database, cache.get(), &frames, &images);
-  std::unordered_map<image_t, frame_t> frame_of_image;
-  frame_of_image.reserve(images.size());
-  for (const Image& image : images) {
-    frame_of_image.emplace(image.ImageId(), image.FrameId());
-  }
-
   // The frames asked for: those holding one of `image_names` (a frame's
   // images stay together), or all.
+  std::unordered_map<image_t, frame_t> frame_of_image;
   std::unordered_set<frame_t> selected_frame_ids;
   for (const Image& image : images) {
+    frame_of_image.emplace(image.ImageId(), image.FrameId());
     if (options.image_names.empty() ||
         options.image_names.count(image.Name()) > 0) {
       selected_frame_ids.insert(image.FrameId());
@@ -190,40 +153,38 @@ std::shared_ptr<DatabaseCache> CreateFilteredDatabaseCache(
     if (loaded_frame_ids.count(image.FrameId()) == 0) {
       continue;
     }
-    const FeatureKeypoints keypoints = database.ReadKeypoints(image.ImageId());
-    std::vector<Eigen::Vector2d> points2D;
-    points2D.reserve(keypoints.size());
-    for (const FeatureKeypoint& keypoint : keypoints) {
-      points2D.emplace_back(keypoint.x, keypoint.y);
-    }
-    image.SetPoints2D(points2D);
+    image.SetPoints2D(FeatureKeypointsToPointsVector(
+        database.ReadKeypoints(image.ImageId())));
     cache->AddImage(std::move(image));
   }
   const size_t num_images = images.size();
   images.clear();
   images.shrink_to_fit();
 
-  std::vector<PosePrior> pose_priors = database.ReadAllPosePriors();
-  if (options.convert_pose_priors_to_enu) {
-    ConvertPosePriorsToENU(&pose_priors);
+  // DatabaseCache converts pose priors to ENU (a private method) as it
+  // loads or copies a cache: here as it copies a cache of the priors alone.
+  DatabaseCache prior_cache;
+  for (PosePrior& pose_prior : database.ReadAllPosePriors()) {
+    prior_cache.AddPosePrior(std::move(pose_prior));
   }
-  for (PosePrior& pose_prior : pose_priors) {
-    cache->AddPosePrior(std::move(pose_prior));
+  DatabaseCache::Options prior_options;
+  prior_options.convert_pose_priors_to_enu = options.convert_pose_priors_to_enu;
+  const std::shared_ptr<DatabaseCache> priors =
+      DatabaseCache::CreateFromCache(prior_cache, prior_options);
+  for (const PosePrior& pose_prior : priors->PosePriors()) {
+    cache->AddPosePrior(pose_prior);
   }
 
   // Each pair's matches are read as they are added.
   CorrespondenceGraph& correspondence_graph = *cache->CorrespondenceGraph();
   for (size_t i = 0; i < pair_ids.size(); ++i) {
     const auto [image_id1, image_id2] = PairIdToImagePair(pair_ids[i]);
-    if (options.ignore_watermarks) {
-      correspondence_graph.AddTwoViewGeometry(
-          image_id1, image_id2, std::move(two_view_geometries[i]));
-    } else {
-      correspondence_graph.AddTwoViewGeometry(
-          image_id1,
-          image_id2,
-          database.ReadTwoViewGeometry(image_id1, image_id2));
-    }
+    correspondence_graph.AddTwoViewGeometry(
+        image_id1,
+        image_id2,
+        options.ignore_watermarks
+            ? std::move(two_view_geometries[i])
+            : database.ReadTwoViewGeometry(image_id1, image_id2));
   }
   correspondence_graph.Finalize();
 

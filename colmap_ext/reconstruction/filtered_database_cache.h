@@ -1,15 +1,12 @@
 // A DatabaseCache of a subset of a database's image pairs.
 //
-// CreateFilteredDatabaseCache loads what DatabaseCache::Create loads (rigs,
-// cameras, frames, images with their keypoints, pose priors, and the
-// correspondence graph of the pairs with at least `options.min_num_matches`
-// inlier matches among the frames of `options.image_names`, watermark pairs
-// left out with `options.ignore_watermarks`), without the pairs that
-// `use_image_pair` refuses. Where Create reads every pair's matches first,
-// it reads the inlier counts, then the geometries of the pairs in use one at
-// a time (together first with `ignore_watermarks`): memory follows the
-// subset. Pairs without inlier matches are never loaded (Create with
-// `min_num_matches` 0 keeps them, without correspondences).
+// CreateFilteredDatabaseCache loads what DatabaseCache::Create loads with the
+// same options, without the pairs that `use_image_pair` refuses. Where Create
+// reads every pair's matches first, it reads the inlier counts, then the
+// geometries of the pairs in use one at a time (together first with
+// `ignore_watermarks`): memory follows the subset. Pairs without inlier
+// matches are never loaded (Create with `min_num_matches` 0 keeps them,
+// without correspondences).
 
 #pragma once
 

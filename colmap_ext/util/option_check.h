@@ -8,15 +8,9 @@
 
 #include "colmap/util/logging.h"
 
-#include <sstream>
 #include <string>
 
 namespace colmap {
-
-// The flag of a --CommunityMapper.* option: "--CommunityMapper.NAME".
-inline std::string CommunityMapperFlag(const std::string& name) {
-  return "--CommunityMapper." + name;
-}
 
 // Where `valid` is false, logs "--CommunityMapper.NAME is VALUE: it must be
 // REQUIREMENT." Returns `valid`.
@@ -25,12 +19,8 @@ bool CheckFlag(const bool valid,
                const std::string& name,
                const T& value,
                const std::string& requirement) {
-  if (!valid) {
-    std::ostringstream message;
-    message << CommunityMapperFlag(name) << " is " << value
-            << ": it must be " << requirement << ".";
-    LOG(ERROR) << message.str();
-  }
+  LOG_IF(ERROR, !valid) << "--CommunityMapper." << name << " is " << value
+                        << ": it must be " << requirement << ".";
   return valid;
 }
 

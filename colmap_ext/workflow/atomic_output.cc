@@ -36,6 +36,12 @@ std::string PreviousPath(const std::string& path) {
   return path + ".old-" + WriterTag();
 }
 
+std::string ParentFolder(const std::string& path) {
+  const std::filesystem::path parent =
+      std::filesystem::path(path).parent_path();
+  return parent.empty() ? "." : parent.string();
+}
+
 }  // namespace
 
 bool IsEndedWriterOfThisHost(const std::string& tag) {
@@ -65,16 +71,6 @@ bool IsEndedWriterOfThisHost(const std::string& tag) {
   return name_end != std::string::npos && name_end + 2 < line.size() &&
          (line[name_end + 2] == 'Z' || line[name_end + 2] == 'X');
 }
-
-namespace {
-
-std::string ParentFolder(const std::string& path) {
-  const std::filesystem::path parent =
-      std::filesystem::path(path).parent_path();
-  return parent.empty() ? "." : parent.string();
-}
-
-}  // namespace
 
 int RemoveLeftoversOfEndedWriters(const std::string& folder) {
   std::error_code error;
@@ -113,7 +109,6 @@ void WriteReconstructionAtomically(const Reconstruction& reconstruction,
   std::filesystem::remove_all(temporary);
   try {
     std::filesystem::create_directories(temporary);
-    // Rigs, cameras, frames, images and points, in COLMAP's binary format.
     reconstruction.WriteBinary(temporary);
   } catch (...) {
     std::error_code ignored;
@@ -137,13 +132,11 @@ void WriteReconstructionAtomically(const Reconstruction& reconstruction,
 
 void WriteTextFileAtomically(const std::string& text, const std::string& path) {
   const std::string temporary = TemporaryPath(path);
-  {
-    std::ofstream file(temporary, std::ios::trunc);
-    THROW_CHECK_FILE_OPEN(file, temporary);
-    file << text;
-    file.close();
-    THROW_CHECK(file.good()) << "Could not write " << temporary;
-  }
+  std::ofstream file(temporary, std::ios::trunc);
+  THROW_CHECK_FILE_OPEN(file, temporary);
+  file << text;
+  file.close();
+  THROW_CHECK(file.good()) << "Could not write " << temporary;
   std::filesystem::rename(temporary, path);
   RemoveLeftoversOfEndedWriters(ParentFolder(path));
 }

@@ -17,10 +17,8 @@ namespace colmap {
 // This host's name.
 std::string HostName();
 
-// The writer's tag (HOST-PID, this host and process), in its temporary
-// names: a leftover of a process that no longer runs on this host can be
-// told from the output another process (on this host or another sharing
-// the folder) is writing.
+// The writer's tag (HOST-PID) in its temporary names, which tells the
+// leftovers of an ended process from what a running one is writing.
 std::string WriterTag();
 
 // Whether `tag` (HOST-PID) names a process of this host that has ended
@@ -35,14 +33,12 @@ void WriteReconstructionAtomically(const Reconstruction& reconstruction,
 // Writes the text to the file `path`, replacing a file that is there.
 void WriteTextFileAtomically(const std::string& text, const std::string& path);
 
-// Removes from `folder` what writers killed while writing an output there
-// left behind: those of processes of this host that no longer run. Their
-// temporaries go, and a previous output they had moved aside goes where the
-// output itself is there again (otherwise it is the only copy, and stays).
-// What running processes, or other hosts sharing the folder (a cluster's
-// jobs), are writing is left alone.
-// Both writers above call it on their destination's folder once their
-// output is in place. Returns the number of leftovers removed.
+// Removes from `folder` what writers of this host that no longer run left
+// there: their temporaries, and a previous output they had moved aside where
+// the output itself is there again (otherwise it is the only copy). What
+// running processes or other hosts (a cluster's jobs) write is left alone.
+// Both writers above call it once their output is in place. Returns the
+// number of leftovers removed.
 int RemoveLeftoversOfEndedWriters(const std::string& folder);
 
 // Whether the folder holds a COLMAP model (cameras, images, points3D, in

@@ -71,12 +71,7 @@ std::string ReadImageList(const std::string& path,
            " does not exist. Check --image_list_path: a text file with one "
            "image name per line, as in the database.";
   }
-  for (std::string name : ReadTextFileLines(path)) {
-    StringTrim(&name);
-    if (!name.empty()) {
-      names->push_back(name);
-    }
-  }
+  *names = ReadTextFileLines(path);  // Trimmed, without empty lines.
   if (names->empty()) {
     return "The image list " + path +
            " names no image: give one image name per line.";

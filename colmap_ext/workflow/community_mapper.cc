@@ -19,20 +19,6 @@
 #include <algorithm>
 
 namespace colmap {
-namespace {
-
-// The database's fingerprint (community_workspace.h), its opening tried
-// again while another task of a job array holds the database
-// (database_retry.h).
-std::string ReadDatabaseFingerprint(const std::string& database_path) {
-  std::string fingerprint;
-  RetryDatabaseAccessOrThrow(database_path, [&]() {
-    fingerprint = DatabaseFingerprint(*Database::Open(database_path));
-  });
-  return fingerprint;
-}
-
-}  // namespace
 
 CommunityMergerOptions CommunityMapperController::Options::MergeOptions()
     const {
@@ -173,17 +159,12 @@ bool CommunityMapperController::Partition() {
   }
   has_plan_ = true;
   SummarizePlan();
-
-  std::string sizes;
-  for (const int size : summary_.community_sizes) {
-    sizes += " " + std::to_string(size);
-  }
   LOG(INFO) << StringPrintf(
       "%d communities (%d before merging those under %d images), sizes:%s",
       partition.NumCommunities(),
       partition.num_communities_before_merge,
       options_.community_detection.min_community_size,
-      sizes.c_str());
+      SpaceSeparated(summary_.community_sizes).c_str());
 
   // The plan is written last: it marks a finished partition.
   CreateDirIfNotExists(options_.output_path, /*recursive=*/true);
@@ -218,7 +199,11 @@ bool CommunityMapperController::LoadPlan() {
     return false;
   }
   if (database_fingerprint_.empty()) {
-    database_fingerprint_ = ReadDatabaseFingerprint(options_.database_path);
+    // Tried again while another task of a job array holds the database.
+    RetryDatabaseAccessOrThrow(options_.database_path, [this]() {
+      database_fingerprint_ =
+          DatabaseFingerprint(*Database::Open(options_.database_path));
+    });
   }
   const std::string mismatch =
       PlanMismatch(plan_, database_fingerprint_, options_.plan_options);
@@ -328,11 +313,9 @@ bool CommunityMapperController::ReconstructAndRecord(
   CreateDirIfNotExists(workspace_.CommunitiesDir());
   WriteTextFileAtomically(CommunityRecordToText(record),
                           workspace_.CommunityRecordPath(community_id));
-  if (record.num_registered == 0) {
-    LOG(WARNING) << DescribeCommunityRecord(record);
-  } else {
-    LOG(INFO) << DescribeCommunityRecord(record);
-  }
+  LOG_IF(WARNING, record.num_registered == 0)
+      << DescribeCommunityRecord(record);
+  LOG_IF(INFO, record.num_registered != 0) << DescribeCommunityRecord(record);
   return true;
 }
 
@@ -427,20 +410,12 @@ bool CommunityMapperController::RunAllStages() {
   summary_ = CommunityMapperSummary();
   Timer phase_timer;
 
-  //////////////////////////////////////////////////////////////////////////////
-  // 1. View graph and communities (or the plan of an earlier run)
-  //////////////////////////////////////////////////////////////////////////////
-
   LOG_HEADING1("1. Partitioning the view graph into communities");
   phase_timer.Start();
   if (!Partition()) {
     return false;
   }
   EndPhase("Partition", phase_timer.ElapsedSeconds());
-
-  //////////////////////////////////////////////////////////////////////////////
-  // 2. Community reconstruction
-  //////////////////////////////////////////////////////////////////////////////
 
   LOG_HEADING1("2. Reconstructing the communities");
   phase_timer.Restart();
@@ -450,13 +425,9 @@ bool CommunityMapperController::RunAllStages() {
         .push_back(c);
   }
   if (!summary_.reused_communities.empty()) {
-    std::string ids;
-    for (const int c : summary_.reused_communities) {
-      ids += " " + std::to_string(c);
-    }
     LOG(INFO) << "Reusing the communities reconstructed by an earlier run of "
                  "this plan:"
-              << ids;
+              << SpaceSeparated(summary_.reused_communities);
   }
   const int num_threads = GetEffectiveNumThreads(-1);
   const int num_workers =
@@ -473,7 +444,6 @@ bool CommunityMapperController::RunAllStages() {
       num_threads_per_worker);
   std::mutex database_mutex;
   std::mutex progress_mutex;
-  int num_done = 0;
   // Communities are numbered largest first, the order that keeps the
   // workers busiest.
   ThreadPool thread_pool(num_workers);
@@ -484,10 +454,10 @@ bool CommunityMapperController::RunAllStages() {
       }
       std::lock_guard<std::mutex> lock(progress_mutex);
       summary_.reconstructed_communities.push_back(c);
-      ++num_done;
       LOG(INFO) << StringPrintf(
           "Communities done: %d of %d (%.0fs, %s)",
-          num_done + static_cast<int>(summary_.reused_communities.size()),
+          static_cast<int>(summary_.reconstructed_communities.size() +
+                           summary_.reused_communities.size()),
           plan_.NumCommunities(),
           phase_timer.ElapsedSeconds(),
           ProcessMemoryToString(ReadProcessMemory()).c_str());
@@ -500,11 +470,8 @@ bool CommunityMapperController::RunAllStages() {
     return false;
   }
 
-  //////////////////////////////////////////////////////////////////////////////
-  // 3. Merge: pairwise similarities, their averaging, global refinement and
-  // registration (community_merger.h)
-  //////////////////////////////////////////////////////////////////////////////
-
+  // Pairwise similarities, their averaging, global refinement and
+  // registration (community_merger.h).
   LOG_HEADING1("3. Merging the communities");
   const bool merged = Merge();
   LogCommunityMapperSummary(summary_);

@@ -124,8 +124,7 @@ class CommunityMapperController : public BaseController {
  private:
   // Reads the plan and checks that it fits this run; logs why not.
   bool LoadPlan();
-  // The plan's figures (the partition's and the communities' sizes) in the
-  // summary.
+  // Copies the plan's figures (modularity, community sizes) to the summary.
   void SummarizePlan();
   // Reconstructs the community with `num_threads` threads and writes its
   // model and record.

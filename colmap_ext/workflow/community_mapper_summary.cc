@@ -4,19 +4,18 @@
 #include "colmap/util/misc.h"
 #include "colmap/util/string.h"
 
-#include <algorithm>
-
 namespace colmap {
+
+std::string SpaceSeparated(const std::vector<int>& values) {
+  std::string text;
+  for (const int value : values) {
+    text += " " + std::to_string(value);
+  }
+  return text;
+}
 
 std::string CommunityMapperSummaryToText(
     const CommunityMapperSummary& summary) {
-  auto join = [](const auto& values) {
-    std::string text;
-    for (const auto& value : values) {
-      text += " " + std::to_string(value);
-    }
-    return text;
-  };
   std::string text =
       "# Figures of a community_mapper run (key value; seconds, MB)\n";
   text +=
@@ -24,21 +23,23 @@ std::string CommunityMapperSummaryToText(
   text += StringPrintf("max_modularity %.4f\n", summary.max_modularity);
   text += StringPrintf("num_communities %d\n",
                        static_cast<int>(summary.community_sizes.size()));
-  text += "community_sizes" + join(summary.community_sizes) + "\n";
-  text +=
-      "extra_community_origins" + join(summary.extra_community_origins) + "\n";
+  text += "community_sizes" + SpaceSeparated(summary.community_sizes) + "\n";
+  text += "extra_community_origins" +
+          SpaceSeparated(summary.extra_community_origins) + "\n";
   text += "reconstructed_communities" +
-          join(summary.reconstructed_communities) + "\n";
-  text += "reused_communities" + join(summary.reused_communities) + "\n";
+          SpaceSeparated(summary.reconstructed_communities) + "\n";
+  text +=
+      "reused_communities" + SpaceSeparated(summary.reused_communities) + "\n";
   text += StringPrintf("num_community_pairs %d\n", summary.num_community_pairs);
   text += StringPrintf("num_estimated_similarities %d\n",
                        summary.num_estimated_similarities);
   text +=
       StringPrintf("num_kept_similarities %d\n", summary.num_kept_similarities);
-  text += "model_num_registered" + join(summary.model_num_registered) + "\n";
+  text += "model_num_registered" +
+          SpaceSeparated(summary.model_num_registered) + "\n";
   for (const auto& phase : summary.phase_seconds) {
     std::string name = StringReplace(phase.first, " ", "_");
-    std::transform(name.begin(), name.end(), name.begin(), ::tolower);
+    StringToLower(&name);
     text += StringPrintf("phase_seconds %s %.3f\n", name.c_str(), phase.second);
   }
   text += StringPrintf("peak_memory_mb %.1f\n", summary.peak_memory_mb);
@@ -75,11 +76,8 @@ void LogCommunityMapperSummary(const CommunityMapperSummary& summary) {
       summary.num_kept_similarities,
       summary.num_estimated_similarities - summary.num_kept_similarities);
   if (!summary.reused_communities.empty()) {
-    std::string ids;
-    for (const int c : summary.reused_communities) {
-      ids += " " + std::to_string(c);
-    }
-    LOG(INFO) << "Communities reused from an earlier run of this plan:" << ids;
+    LOG(INFO) << "Communities reused from an earlier run of this plan:"
+              << SpaceSeparated(summary.reused_communities);
   }
   int num_registered = 0;
   for (size_t m = 0; m < summary.model_num_registered.size(); ++m) {

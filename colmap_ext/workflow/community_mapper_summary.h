@@ -10,10 +10,12 @@
 
 namespace colmap {
 
-// What happened, for the log's final summary and for tests: the merge's
-// result (community_merger.h; its view-graph figures are set by the
-// partition too) and the run's own figures.
+// The merge's result (community_merger.h; its view-graph figures are set by
+// the partition too) and the run's own figures.
 struct CommunityMapperSummary : public CommunityMergerResult {
+  // The view graph of the partition.
+  int num_view_graph_images = 0;
+  int num_view_graph_edges = 0;
   double max_modularity = 0.0;
   // Per community of the plan: its own images.
   std::vector<int> community_sizes;
@@ -28,6 +30,9 @@ struct CommunityMapperSummary : public CommunityMergerResult {
   // Peak resident memory of the process (MB).
   double peak_memory_mb = 0.0;
 };
+
+// The values, each after a space: " 1 2 3".
+std::string SpaceSeparated(const std::vector<int>& values);
 
 // The summary as "key value" lines (OUT/summary.txt), for scripts such as
 // the benchmark: phase_seconds NAME SECONDS (NAME in snake case),

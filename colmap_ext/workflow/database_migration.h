@@ -24,8 +24,7 @@ bool IsColmap3Database(const std::string& path);
 // Where MigrateColmap3Database keeps the original: `path` + ".colmap3".
 std::string Colmap3BackupPath(const std::string& path);
 
-// Migrates the COLMAP 3 database at `path` to COLMAP 4's layout: a copy is
-// migrated and renamed to `path`, the original renamed to
+// Migrates the COLMAP 3 database at `path` as above, the original renamed to
 // Colmap3BackupPath(path). Throws, with `path` as it was, where any step
 // fails or the backup path is taken.
 void MigrateColmap3Database(const std::string& path);

@@ -1,11 +1,7 @@
-// Access to a COLMAP database that another process may hold for a moment.
-//
-// Opening a database runs COLMAP's schema statements, which hold SQLite's
-// write lock briefly: the tasks of a job array that start together find it
-// locked ("database is locked"). Every SQLite connection of the process
-// waits for such a lock (WaitOnLockedDatabases); an access that fails all
-// the same (e.g. a load that found nothing) is tried again a few times,
-// waiting longer each time.
+// Access to a COLMAP database that another process may hold for a moment:
+// opening one runs COLMAP's schema statements, which hold SQLite's write
+// lock briefly, so the tasks of a job array that start together find it
+// locked ("database is locked").
 
 #pragma once
 
