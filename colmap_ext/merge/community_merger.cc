@@ -71,6 +71,8 @@ void CommunityMerger::EstimateSimilarities() {
       Database::Open(options_.database_path);
   view_graph_ = std::make_unique<ViewGraph>(ViewGraph::Read(
       *database, options_.min_num_matches, options_.image_names));
+  result_.num_view_graph_images = static_cast<int>(view_graph_->NumVertices());
+  result_.num_view_graph_edges = static_cast<int>(view_graph_->NumEdges());
   communities_ = GroupImagesByCommunity(*view_graph_, plan_);
   result_.community_of_image = communities_.community_of_image;
 

@@ -96,6 +96,9 @@ struct CommunityMergerResult {
   std::vector<int> extra_community_origins;
   // The plan's community of every image of the view graph.
   std::unordered_map<image_t, int> community_of_image;
+  // View graph of the merge (a resumed run's summary counts it).
+  int num_view_graph_images = 0;
+  int num_view_graph_edges = 0;
   // Pairs of communities joined by view-graph edges, with a similarity,
   // and kept by the averaging.
   int num_community_pairs = 0;

@@ -13,9 +13,6 @@ namespace colmap {
 // The merge's result (community_merger.h; its view-graph figures are set by
 // the partition too) and the run's own figures.
 struct CommunityMapperSummary : public CommunityMergerResult {
-  // The view graph of the partition.
-  int num_view_graph_images = 0;
-  int num_view_graph_edges = 0;
   double max_modularity = 0.0;
   // Per community of the plan: its own images.
   std::vector<int> community_sizes;
