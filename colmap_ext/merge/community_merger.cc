@@ -312,6 +312,8 @@ void CommunityMerger::JoinAndRefineParts() {
       ReleaseFreedMemory();
       if (!options_.skip_global_refinement) {
         RefinePart(part_model.model);
+        // The refinement's correspondences and adjustment are freed.
+        ReleaseFreedMemory();
       }
       part_models_.push_back(std::move(part_model));
     } catch (const std::exception& error) {
