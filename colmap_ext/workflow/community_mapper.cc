@@ -313,9 +313,11 @@ bool CommunityMapperController::ReconstructAndRecord(
   CreateDirIfNotExists(workspace_.CommunitiesDir());
   WriteTextFileAtomically(CommunityRecordToText(record),
                           workspace_.CommunityRecordPath(community_id));
-  LOG_IF(WARNING, record.num_registered == 0)
-      << DescribeCommunityRecord(record);
-  LOG_IF(INFO, record.num_registered != 0) << DescribeCommunityRecord(record);
+  if (record.num_registered == 0) {
+    LOG(WARNING) << DescribeCommunityRecord(record);
+  } else {
+    LOG(INFO) << DescribeCommunityRecord(record);
+  }
   return true;
 }
 
