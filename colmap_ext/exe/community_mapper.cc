@@ -18,18 +18,13 @@
 namespace colmap {
 namespace {
 
+// The command of each stage, in CommunityMapperStage's order.
 const char* StageName(const CommunityMapperStage stage) {
-  switch (stage) {
-    case CommunityMapperStage::kAll:
-      return "community_mapper";
-    case CommunityMapperStage::kPartition:
-      return "community_partitioner";
-    case CommunityMapperStage::kCommunity:
-      return "community_reconstructor";
-    case CommunityMapperStage::kMerge:
-      return "community_merger";
-  }
-  return "";
+  static const char* const kNames[] = {"community_mapper",
+                                       "community_partitioner",
+                                       "community_reconstructor",
+                                       "community_merger"};
+  return kNames[static_cast<int>(stage)];
 }
 
 // Decides what the command may do with the results already in OUT: resume

@@ -154,10 +154,9 @@ void CheckImagePath(const std::string& image_path) {
     return;
   }
   std::error_code error;
-  if (std::filesystem::is_empty(image_path, error) && !error) {
-    LOG(WARNING) << "--image_path " << image_path
-                 << " is empty: the points will have no colours.";
-  }
+  LOG_IF(WARNING, std::filesystem::is_empty(image_path, error) && !error)
+      << "--image_path " << image_path
+      << " is empty: the points will have no colours.";
 }
 
 bool TakeCommunityId(std::vector<char*>* arguments, int* community_id) {

@@ -18,21 +18,17 @@ CrossEdges GroupCrossEdges(
     const std::unordered_map<image_t, int>& community_of_image) {
   CrossEdges cross_edges;
   for (const ViewGraph::Edge& edge : view_graph.Edges()) {
-    image_t image_id1 = view_graph.ImageIds()[edge.vertex1];
-    image_t image_id2 = view_graph.ImageIds()[edge.vertex2];
+    const image_t image_id1 = view_graph.ImageIds()[edge.vertex1];
+    const image_t image_id2 = view_graph.ImageIds()[edge.vertex2];
     const auto it1 = community_of_image.find(image_id1);
     const auto it2 = community_of_image.find(image_id2);
     if (it1 == community_of_image.end() || it2 == community_of_image.end() ||
         it1->second == it2->second) {
       continue;
     }
-    int community1 = it1->second;
-    int community2 = it2->second;
-    if (community1 > community2) {
-      std::swap(community1, community2);
-      std::swap(image_id1, image_id2);
-    }
-    cross_edges[{community1, community2}].emplace_back(image_id1, image_id2);
+    const bool swapped = it1->second > it2->second;
+    cross_edges[std::minmax(it1->second, it2->second)].emplace_back(
+        swapped ? image_id2 : image_id1, swapped ? image_id1 : image_id2);
   }
   return cross_edges;
 }
@@ -57,14 +53,11 @@ std::vector<CrossPairMatches> SharedImageMatches(const Reconstruction& model1,
   std::vector<CrossPairMatches> cross_pairs;
   for (const image_t image_id : model1.RegImageIds()) {
     if (model2.ExistsImage(image_id) && model2.Image(image_id).HasPose()) {
-      CrossPairMatches shared;
-      shared.image_id1 = image_id;
-      shared.image_id2 = image_id;
+      cross_pairs.push_back({image_id, image_id, {}});
       for (point2D_t idx = 0; idx < model1.Image(image_id).NumPoints2D();
            ++idx) {
-        shared.matches.emplace_back(idx, idx);
+        cross_pairs.back().matches.emplace_back(idx, idx);
       }
-      cross_pairs.push_back(std::move(shared));
     }
   }
   return cross_pairs;
@@ -123,14 +116,11 @@ PairOutcome EstimatePairSimilarity(
   const size_t num_shared_images = cross_pairs.size();
   {
     std::lock_guard<std::mutex> lock(*database_mutex);
-    for (const auto& image_pair : cross_edges) {
-      CrossPairMatches cross_pair;
-      cross_pair.image_id1 = image_pair.first;
-      cross_pair.image_id2 = image_pair.second;
-      cross_pair.matches =
-          database.ReadTwoViewGeometry(image_pair.first, image_pair.second)
-              .inlier_matches;
-      cross_pairs.push_back(std::move(cross_pair));
+    for (const auto& [image_id1, image_id2] : cross_edges) {
+      cross_pairs.push_back(
+          {image_id1,
+           image_id2,
+           database.ReadTwoViewGeometry(image_id1, image_id2).inlier_matches});
     }
   }
   const PointCorrespondences correspondences =

@@ -25,27 +25,6 @@ void LogMemory(const std::string& step) {
             << ProcessMemoryToString(ReadProcessMemory());
 }
 
-// The own images of every community, by the plan.
-CommunityImages GroupImagesByCommunity(const ViewGraph& view_graph,
-                                       const CommunityPlan& plan) {
-  std::unordered_map<std::string, image_t> image_of_name;
-  for (size_t vertex = 0; vertex < view_graph.NumVertices(); ++vertex) {
-    image_of_name.emplace(view_graph.ImageNames()[vertex],
-                          view_graph.ImageIds()[vertex]);
-  }
-  CommunityImages groups;
-  groups.own_image_ids.resize(plan.NumCommunities());
-  for (int c = 0; c < plan.NumCommunities(); ++c) {
-    for (const std::string& name : plan.communities[c].own_image_names) {
-      const image_t image_id = image_of_name.at(name);
-      groups.own_image_ids[c].insert(image_id);
-      groups.name_of_image.emplace(image_id, name);
-      groups.community_of_image.emplace(image_id, c);
-    }
-  }
-  return groups;
-}
-
 }  // namespace
 
 bool CommunityMergerOptions::Check() const {
@@ -73,7 +52,21 @@ void CommunityMerger::EstimateSimilarities() {
       *database, options_.min_num_matches, options_.image_names));
   result_.num_view_graph_images = static_cast<int>(view_graph_->NumVertices());
   result_.num_view_graph_edges = static_cast<int>(view_graph_->NumEdges());
-  communities_ = GroupImagesByCommunity(*view_graph_, plan_);
+  // The own images of every community, by the plan.
+  std::unordered_map<std::string, image_t> image_of_name;
+  for (size_t vertex = 0; vertex < view_graph_->NumVertices(); ++vertex) {
+    image_of_name.emplace(view_graph_->ImageNames()[vertex],
+                          view_graph_->ImageIds()[vertex]);
+  }
+  communities_.own_image_ids.resize(plan_.NumCommunities());
+  for (int c = 0; c < plan_.NumCommunities(); ++c) {
+    for (const std::string& name : plan_.communities[c].own_image_names) {
+      const image_t image_id = image_of_name.at(name);
+      communities_.own_image_ids[c].insert(image_id);
+      communities_.name_of_image.emplace(image_id, name);
+      communities_.community_of_image.emplace(image_id, c);
+    }
+  }
   result_.community_of_image = communities_.community_of_image;
 
   ReadCommunityModels();
@@ -92,12 +85,10 @@ void CommunityMerger::EstimateSimilarities() {
       options_.incremental_options.num_threads);
   result_.num_estimated_similarities =
       static_cast<int>(similarities_.similarities.size());
-  if (!similarities_.false_pairs.empty()) {
-    LOG(INFO) << StringPrintf(
-        "%d image pairs between communities support only rejected "
-        "transforms: the merged models leave them out.",
-        static_cast<int>(similarities_.false_pairs.size()));
-  }
+  LOG_IF(INFO, !similarities_.false_pairs.empty()) << StringPrintf(
+      "%d image pairs between communities support only rejected "
+      "transforms: the merged models leave them out.",
+      static_cast<int>(similarities_.false_pairs.size()));
 }
 
 // The communities' models as their stage wrote them (none where nothing was
@@ -106,15 +97,12 @@ void CommunityMerger::ReadCommunityModels() {
   const int num_plan_communities = plan_.NumCommunities();
   models_.assign(num_plan_communities, nullptr);
   std::vector<CommunityRecord> records;
-  result_.community_reports.assign(num_plan_communities,
-                                   CommunityModelReport());
   for (int c = 0; c < num_plan_communities; ++c) {
     records.push_back(CommunityRecordFromText(
         ReadTextFile(workspace_.CommunityRecordPath(c))));
     const CommunityRecord& record = records.back();
-    CommunityModelReport& report = result_.community_reports[c];
-    report.num_registered = record.num_registered;
-    report.num_models = record.num_models;
+    result_.community_reports.push_back(
+        {record.num_registered, record.num_models});
     model_paths_.push_back(workspace_.CommunityModelPath(c));
     if (record.num_registered > 0) {
       models_[c] = std::make_shared<Reconstruction>();
@@ -188,11 +176,9 @@ void CommunityMerger::AddExtraCommunities(const CommunityRecord& record) {
 }
 
 void CommunityMerger::AverageSimilarities() {
-  const int num_communities = static_cast<int>(models_.size());
-  std::vector<AveragedCommunity> averaged_communities(num_communities);
-  for (int c = 0; c < num_communities; ++c) {
-    averaged_communities[c].num_images =
-        result_.community_reports[c].num_registered;
+  std::vector<AveragedCommunity> averaged_communities;
+  for (const CommunityModelReport& report : result_.community_reports) {
+    averaged_communities.push_back({report.num_registered});
   }
   const std::vector<RelativeSimilarity>& similarities =
       similarities_.similarities;
@@ -290,8 +276,7 @@ void CommunityMerger::JoinAndRefineParts() {
     if (part_communities.empty()) {
       continue;
     }
-    PartModel part_model;
-    part_model.communities = part_communities;
+    PartModel part_model{/*model=*/nullptr, part_communities};
     const auto offered = offers.image_communities_of_part.find(part);
     if (offered != offers.image_communities_of_part.end()) {
       part_model.offered_communities = offered->second;
@@ -321,18 +306,14 @@ void CommunityMerger::JoinAndRefineParts() {
                  << "; each of them is written as a model of its own.";
       for (const int c : part_communities) {
         models_[c].reset();
-        PartModel community_model;
-        community_model.communities = {c};
-        community_model.model = OwnModel(c, /*model=*/nullptr);
-        part_models_.push_back(std::move(community_model));
+        part_models_.push_back(
+            {OwnModel(c, /*model=*/nullptr), /*communities=*/{c}});
       }
       ReleaseFreedMemory();
     }
   }
 }
 
-// The part's joined model refined on the correspondences of its registered
-// images (global_refinement.h).
 void CommunityMerger::RefinePart(
     const std::shared_ptr<Reconstruction>& merged) const {
   const double initial_error = merged->ComputeMeanReprojectionError();
@@ -441,38 +422,6 @@ bool CommunityMerger::RegisterIntoPart(
   return true;
 }
 
-// An image left without any pair (all contradicting the merge) cannot be
-// refined: it stays out. (The view graph tells, before the models are
-// joined and released, which images the correspondences will hold.)
-void CommunityMerger::LeaveOutUnpairedImages(
-    const std::unordered_set<std::string>& part_image_names,
-    std::vector<std::unordered_set<image_t>>* owned_image_ids) const {
-  std::unordered_set<image_t> connected_image_ids;
-  for (const ViewGraph::Edge& edge : view_graph_->Edges()) {
-    const image_t image_id1 = view_graph_->ImageIds()[edge.vertex1];
-    const image_t image_id2 = view_graph_->ImageIds()[edge.vertex2];
-    if (part_image_names.count(view_graph_->ImageNames()[edge.vertex1]) &&
-        part_image_names.count(view_graph_->ImageNames()[edge.vertex2]) &&
-        !similarities_.false_pairs.count(
-            ImagePairToPairId(image_id1, image_id2))) {
-      connected_image_ids.insert(image_id1);
-      connected_image_ids.insert(image_id2);
-    }
-  }
-  for (std::unordered_set<image_t>& image_ids : *owned_image_ids) {
-    for (auto it = image_ids.begin(); it != image_ids.end();) {
-      if (connected_image_ids.count(*it)) {
-        ++it;
-      } else {
-        LOG(WARNING) << "Image " << communities_.name_of_image.at(*it)
-                     << " has no image pair left in the merged model; it is "
-                        "left out.";
-        it = image_ids.erase(it);
-      }
-    }
-  }
-}
-
 std::shared_ptr<DatabaseCache> CommunityMerger::LoadPartCorrespondences(
     const std::unordered_set<std::string>& image_names,
     const Reconstruction& model) const {
@@ -485,18 +434,14 @@ std::shared_ptr<DatabaseCache> CommunityMerger::LoadPartCorrespondences(
   for (const image_t image_id : model.RegImageIds()) {
     database_cache_options.image_names.insert(model.Image(image_id).Name());
   }
-  std::shared_ptr<DatabaseCache> database_cache;
-  {
-    const std::shared_ptr<Database> database =
-        Database::Open(options_.database_path);
-    database_cache = CreateFilteredDatabaseCache(
-        *database,
-        database_cache_options,
-        [this](const image_t image_id1, const image_t image_id2) {
-          return similarities_.false_pairs.count(
-                     ImagePairToPairId(image_id1, image_id2)) == 0;
-        });
-  }
+  const std::shared_ptr<DatabaseCache> database_cache =
+      CreateFilteredDatabaseCache(
+          *Database::Open(options_.database_path),
+          database_cache_options,
+          [this](const image_t image_id1, const image_t image_id2) {
+            return similarities_.false_pairs.count(
+                       ImagePairToPairId(image_id1, image_id2)) == 0;
+          });
   // Building the correspondence graph grows a vector per keypoint and
   // then flattens them; the freed vectors would stay resident through the
   // refinement (see ReleaseFreedMemory).
@@ -514,24 +459,46 @@ std::shared_ptr<DatabaseCache> CommunityMerger::LoadPartCorrespondences(
 // one model in the averaged frame, each with its own images.
 std::shared_ptr<Reconstruction> CommunityMerger::JoinPart(
     const std::vector<int>& part_communities) {
-  LOG(INFO) << "Joining communities" << [&] {
-    std::string ids;
-    for (const int c : part_communities) ids += " " + std::to_string(c);
-    return ids;
-  }();
+  std::string ids;
+  for (const int c : part_communities) ids += " " + std::to_string(c);
+  LOG(INFO) << "Joining communities" << ids;
   std::vector<Reconstruction*> part_models;
   std::vector<Sim3d> world_from_community;
   std::vector<std::unordered_set<image_t>> owned_image_ids;
-  std::unordered_set<std::string> part_image_names;
+  std::unordered_set<image_t> part_image_ids;
   for (const int c : part_communities) {
     part_models.push_back(models_[c].get());
     world_from_community.push_back(averaging_.world_from_community[c]);
     owned_image_ids.push_back(communities_.own_image_ids[c]);
-    for (const image_t image_id : owned_image_ids.back()) {
-      part_image_names.insert(communities_.name_of_image.at(image_id));
+    part_image_ids.insert(owned_image_ids.back().begin(),
+                          owned_image_ids.back().end());
+  }
+  // An image left without any pair (all contradicting the merge) cannot be
+  // refined: it stays out. (The view graph tells, before the models are
+  // joined and released, which images the correspondences will hold.)
+  std::unordered_set<image_t> connected_image_ids;
+  for (const ViewGraph::Edge& edge : view_graph_->Edges()) {
+    const image_t image_id1 = view_graph_->ImageIds()[edge.vertex1];
+    const image_t image_id2 = view_graph_->ImageIds()[edge.vertex2];
+    if (part_image_ids.count(image_id1) && part_image_ids.count(image_id2) &&
+        !similarities_.false_pairs.count(
+            ImagePairToPairId(image_id1, image_id2))) {
+      connected_image_ids.insert(image_id1);
+      connected_image_ids.insert(image_id2);
     }
   }
-  LeaveOutUnpairedImages(part_image_names, &owned_image_ids);
+  for (std::unordered_set<image_t>& image_ids : owned_image_ids) {
+    for (auto it = image_ids.begin(); it != image_ids.end();) {
+      if (connected_image_ids.count(*it)) {
+        ++it;
+      } else {
+        LOG(WARNING) << "Image " << communities_.name_of_image.at(*it)
+                     << " has no image pair left in the merged model; it is "
+                        "left out.";
+        it = image_ids.erase(it);
+      }
+    }
+  }
   auto merged = std::make_shared<Reconstruction>();
   JoinReconstructions(
       part_models, world_from_community, owned_image_ids, merged.get());

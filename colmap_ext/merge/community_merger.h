@@ -58,13 +58,10 @@ struct CommunityMergerOptions {
   // Minimum verified inlier matches of a view-graph edge.
   int min_num_matches = 15;
 
-  // Pairwise similarity estimation between connected communities.
   PairwiseSimilarityOptions pairwise_similarity;
 
-  // The check that an alignment explains which images were matched.
   CovisibilityCheckOptions covisibility_check;
 
-  // Global similarity averaging and the links it keeps.
   SimilarityAveragingOptions similarity_averaging;
 
   // The user's --Mapper.*: the refinement's intrinsics and threads, and the
@@ -167,10 +164,6 @@ class CommunityMerger {
   // memory), or as its stage wrote it if null.
   std::shared_ptr<Reconstruction> OwnModel(
       int c, std::shared_ptr<Reconstruction> model) const;
-  // JoinPart's step: the images without a pair left out of the part.
-  void LeaveOutUnpairedImages(
-      const std::unordered_set<std::string>& part_image_names,
-      std::vector<std::unordered_set<image_t>>* owned_image_ids) const;
   // The correspondences of `model`'s registered images and `image_names`,
   // without the false pairs; every registered image must have some.
   std::shared_ptr<DatabaseCache> LoadPartCorrespondences(

@@ -152,11 +152,6 @@ bool CovisibilityCheckOptions::Check() const {
   return true;
 }
 
-double PairCounts::Rate() const {
-  return num_predicted == 0 ? 0.0
-                            : static_cast<double>(num_verified) / num_predicted;
-}
-
 CovisibilityCheck CheckCovisibility(
     const Reconstruction& reconstruction1,
     const Reconstruction& reconstruction2,
@@ -182,9 +177,7 @@ CovisibilityCheck CheckCovisibility(
     return check;
   }
 
-  // Counts the pair if the matcher compared it (every pair, without
-  // `is_compared_pair`) and it is predicted co-visible: each image sees at
-  // least kMinNumPoints of the other's points.
+  // Counts the pair if the matcher compared it and it is predicted co-visible.
   constexpr int kMinNumPoints = 15;
   const double min_cos = std::cos(DegToRad(options.max_ray_angle_deg));
   const auto count_pair = [&](const ImageView& view1,

@@ -51,8 +51,11 @@ struct PairCounts {
   int num_predicted = 0;
   int num_verified = 0;
 
-  // num_verified / num_predicted (0 without predicted pairs).
-  double Rate() const;
+  double Rate() const {
+    return num_predicted == 0
+               ? 0.0
+               : static_cast<double>(num_verified) / num_predicted;
+  }
 };
 
 struct CovisibilityCheck {

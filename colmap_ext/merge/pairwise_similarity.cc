@@ -114,17 +114,15 @@ PairwiseSimilarity EstimatePairwiseSimilarity(
   // A lower bound of the inlier ratio, which bounds the number of trials.
   ransac_options.min_inlier_ratio = 0.1;
   ransac_options.max_num_trials = 10000;
-  Sim3d second_from_first;
   const auto report = EstimateSim3dRobust(correspondences.points1,
                                           correspondences.points2,
                                           ransac_options,
-                                          second_from_first);
+                                          result.second_from_first);
   if (!report.success) {
     return result;
   }
 
   result.num_inliers = static_cast<int>(report.support.num_inliers);
-  result.second_from_first = second_from_first;
   for (size_t i = 0; i < correspondences.Size(); ++i) {
     if (report.inlier_mask[i]) {
       result.inlier_points1.push_back(correspondences.points1[i]);
@@ -156,7 +154,6 @@ PairwiseSimilarity EstimatePairwiseSimilarity(
       return similarity;
     }
     ++*num_rejected;
-    // Go on with the outliers of the rejected transform.
     const std::set<std::pair<point3D_t, point3D_t>> inliers(
         similarity.inlier_point3D_ids.begin(),
         similarity.inlier_point3D_ids.end());

@@ -27,27 +27,23 @@ PartOffers PlanPartOffers(const std::vector<int>& part_of_community,
 
   // A community without a model: to the part its edges lead to most.
   std::map<int, std::map<int, size_t>> num_edges_to_part;
-  for (const auto& pair_and_edges : cross_edges) {
-    const std::pair<int, int>& pair = pair_and_edges.first;
+  for (const auto& [pair, edges] : cross_edges) {
     THROW_CHECK_LT(pair.second, num_communities);
     if (has_model[pair.first] != has_model[pair.second]) {
       const int unmodelled = has_model[pair.first] ? pair.second : pair.first;
       const int modelled = has_model[pair.first] ? pair.first : pair.second;
       num_edges_to_part[unmodelled][part_of_community[modelled]] +=
-          pair_and_edges.second.size();
+          edges.size();
     }
   }
-  for (const auto& community_and_counts : num_edges_to_part) {
-    const int community = community_and_counts.first;
-    const int best_part = MostCounted(community_and_counts.second);
-    offers.image_communities_of_part[best_part].push_back(community);
+  for (const auto& [community, counts] : num_edges_to_part) {
+    offers.image_communities_of_part[MostCounted(counts)].push_back(community);
   }
 
   // A part that no similarity joins to an earlier one it has edges to: to
   // the earlier part it has the most edges to, and onward.
   std::map<int, std::map<int, size_t>> num_edges_between_parts;
-  for (const auto& pair_and_edges : cross_edges) {
-    const std::pair<int, int>& pair = pair_and_edges.first;
+  for (const auto& [pair, edges] : cross_edges) {
     if (!has_model[pair.first] || !has_model[pair.second]) {
       continue;
     }
@@ -55,19 +51,17 @@ PartOffers PlanPartOffers(const std::vector<int>& part_of_community,
     const int part2 = part_of_community[pair.second];
     if (part1 != part2) {
       num_edges_between_parts[std::max(part1, part2)][std::min(part1, part2)] +=
-          pair_and_edges.second.size();
+          edges.size();
     }
   }
   std::map<int, int> offered_to_part;
-  for (const auto& part_and_counts : num_edges_between_parts) {
-    offered_to_part[part_and_counts.first] =
-        MostCounted(part_and_counts.second);
+  for (const auto& [part, counts] : num_edges_between_parts) {
+    offered_to_part[part] = MostCounted(counts);
   }
-  for (const auto& part_and_target : offered_to_part) {
-    const int part = part_and_target.first;
+  for (const auto& [part, first_target] : offered_to_part) {
     LOG(INFO) << "No similarity joins part " << part
               << " to an earlier part: its images are offered to part "
-              << part_and_target.second << "";
+              << first_target;
     for (auto target = offered_to_part.find(part);
          target != offered_to_part.end();
          target = offered_to_part.find(target->second)) {

@@ -1,6 +1,5 @@
 #include "colmap_ext/merge/similarity_averaging.h"
 
-#include "colmap_ext/merge/pairwise_similarity.h"
 #include "colmap_ext/merge/rotation_averaging.h"
 #include "colmap_ext/util/option_check.h"
 #include "colmap_ext/util/union_find.h"
@@ -150,12 +149,10 @@ bool AveragePart(const std::vector<int>& nodes,
   {
     std::vector<RelativeRotation> relative_rotations;
     for (size_t e = 0; e < edges.size(); ++e) {
-      RelativeRotation relative_rotation;
-      relative_rotation.node1 = edge_nodes[e].first;
-      relative_rotation.node2 = edge_nodes[e].second;
-      relative_rotation.rotation = edges[e]->second_from_first.rotation();
-      relative_rotation.weight = edge_weights[e];
-      relative_rotations.push_back(relative_rotation);
+      relative_rotations.push_back({edge_nodes[e].first,
+                                    edge_nodes[e].second,
+                                    edges[e]->second_from_first.rotation(),
+                                    edge_weights[e]});
     }
     if (!AverageRotations(num_nodes,
                           relative_rotations,
@@ -270,8 +267,7 @@ std::vector<double> EdgeWeights(
   return edge_weights;
 }
 
-// The state the rounds of the averaging share: its input, the edges' weights
-// and the result so far.
+// The state the rounds of the averaging share.
 struct AveragingRounds {
   const std::vector<AveragedCommunity>& communities;
   const std::vector<RelativeSimilarity>& relative_similarities;

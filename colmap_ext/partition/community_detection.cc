@@ -197,20 +197,18 @@ GraphPartitioner::Result GreedyModularityPartitioner::Partition(
 }
 
 bool CommunityDetectionOptions::Check() const {
-  bool valid = true;
-  valid &= CheckFlag(modularity_threshold >= 0 && modularity_threshold < 1,
-                     "modularity_threshold",
-                     modularity_threshold,
-                     "in [0, 1) (the CSfM paper uses 0.3)");
+  bool valid = CheckFlag(modularity_threshold >= 0 && modularity_threshold < 1,
+                         "modularity_threshold",
+                         modularity_threshold,
+                         "in [0, 1) (the CSfM paper uses 0.3)");
   valid &= CheckFlag(min_community_size >= 2,
                      "min_community_size",
                      min_community_size,
                      "at least 2 (the CSfM paper uses 20)");
-  valid &= CheckFlag(
-      max_community_fraction > 0 && max_community_fraction <= 1,
-      "max_community_fraction",
-      max_community_fraction,
-      "in (0, 1] (1: split by the threshold only)");
+  valid &= CheckFlag(max_community_fraction > 0 && max_community_fraction <= 1,
+                     "max_community_fraction",
+                     max_community_fraction,
+                     "in (0, 1] (1: split by the threshold only)");
   valid &= CheckFlag(max_part_conductance > 0 && max_part_conductance <= 1,
                      "partition_max_part_conductance",
                      max_part_conductance,

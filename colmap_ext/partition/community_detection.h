@@ -108,8 +108,7 @@ struct CommunityPartition {
   double MaxModularity() const;
 };
 
-// Partitions the graph by recursive splitting and merging of small
-// communities, as described at the top of this file.
+// Partitions the graph as described at the top of this file.
 CommunityPartition DetectCommunities(const WeightedGraph& graph,
                                      const GraphPartitioner& partitioner,
                                      const CommunityDetectionOptions& options);

@@ -82,13 +82,7 @@ ViewGraphEdgeWeight ViewGraphEdgeWeightFromString(const std::string& name) {
 }
 
 std::string ViewGraphEdgeWeightToString(const ViewGraphEdgeWeight weight) {
-  switch (weight) {
-    case ViewGraphEdgeWeight::kUnit:
-      return "unit";
-    case ViewGraphEdgeWeight::kNumInliers:
-      return "num_inliers";
-  }
-  return "unknown";
+  return weight == ViewGraphEdgeWeight::kUnit ? "unit" : "num_inliers";
 }
 
 ViewGraph ViewGraph::Read(const Database& database,

@@ -96,7 +96,6 @@ class ViewGraph {
   // compared; where there are none, that cannot be told.
   size_t NumFailedPairs() const { return num_failed_pairs_; }
 
-  // The graph with the requested edge weights.
   WeightedGraph ToWeightedGraph(ViewGraphEdgeWeight weight) const;
 
   // Groups the vertices by frame: images that `frame_of_image` puts in one

@@ -5,7 +5,6 @@
 #include "colmap/util/string.h"
 #include "colmap/util/timer.h"
 
-#include <string>
 #include <unordered_map>
 #include <unordered_set>
 #include <utility>

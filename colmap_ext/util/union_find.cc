@@ -26,7 +26,6 @@ bool DisjointSets::Union(const int element1, const int element2) {
   if (root1 == root2) {
     return false;
   }
-  // The smaller root represents the joined set.
   parent_[std::max(root1, root2)] = std::min(root1, root2);
   return true;
 }

@@ -32,10 +32,6 @@ std::string TemporaryPath(const std::string& path) {
   return path + ".tmp-" + WriterTag();
 }
 
-std::string PreviousPath(const std::string& path) {
-  return path + ".old-" + WriterTag();
-}
-
 std::string ParentFolder(const std::string& path) {
   const std::filesystem::path parent =
       std::filesystem::path(path).parent_path();
@@ -118,7 +114,7 @@ void WriteReconstructionAtomically(const Reconstruction& reconstruction,
 
   // A folder cannot be renamed over a non-empty one: move the old one aside
   // first, then drop it.
-  const std::string previous = PreviousPath(path);
+  const std::string previous = path + ".old-" + WriterTag();
   const bool had_previous = std::filesystem::exists(path);
   if (had_previous) {
     std::filesystem::rename(path, previous);

@@ -14,7 +14,6 @@
 
 namespace colmap {
 
-// This host's name.
 std::string HostName();
 
 // The writer's tag (HOST-PID) in its temporary names, which tells the

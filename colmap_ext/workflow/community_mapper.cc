@@ -99,13 +99,12 @@ bool CommunityMapperController::Partition() {
       ViewGraph::Read(*database,
                       options_.incremental_options.min_num_matches,
                       options_.image_names);
-  const ViewGraphEdgeWeight edge_weight = options_.edge_weight;
   // The partition's vertices are frames (rig snapshots, one pose each): a
   // frame's images stay in one community, and communities borrow frames.
-  const WeightedGraph graph = view_graph.ToFrameGraph(edge_weight);
+  const WeightedGraph graph = view_graph.ToFrameGraph(options_.edge_weight);
   const std::vector<std::vector<int>>& frames = view_graph.FrameVertices();
   const std::vector<std::vector<int>> components =
-      view_graph.ToWeightedGraph(edge_weight).ConnectedComponents();
+      view_graph.ToWeightedGraph(options_.edge_weight).ConnectedComponents();
   summary_.num_view_graph_images = static_cast<int>(view_graph.NumVertices());
   summary_.num_view_graph_edges = static_cast<int>(view_graph.NumEdges());
   LOG(INFO) << StringPrintf(
@@ -172,7 +171,7 @@ bool CommunityMapperController::Partition() {
       CommunitiesToText(view_graph,
                         image_partition,
                         options_.community_detection.modularity_threshold,
-                        edge_weight),
+                        options_.edge_weight),
       workspace_.CommunitiesPath());
   WriteTextFileAtomically(CommunityPlanToText(plan_), workspace_.PlanPath());
   LOG(INFO) << "Wrote " << workspace_.CommunitiesPath() << " and "
@@ -350,18 +349,15 @@ bool CommunityMapperController::CheckAllReconstructed() const {
       missing.push_back(c);
     }
   }
-  if (!missing.empty()) {
-    LOG(ERROR) << StringPrintf(
-        "%d of the %d communities of the plan have not been reconstructed "
-        "(no record in %s): %s. Reconstruct them first (colmap "
-        "community_reconstructor --community_id K).",
-        static_cast<int>(missing.size()),
-        plan_.NumCommunities(),
-        workspace_.CommunitiesDir().c_str(),
-        VectorToCSV(missing).c_str());
-    return false;
-  }
-  return true;
+  LOG_IF(ERROR, !missing.empty()) << StringPrintf(
+      "%d of the %d communities of the plan have not been reconstructed "
+      "(no record in %s): %s. Reconstruct them first (colmap "
+      "community_reconstructor --community_id K).",
+      static_cast<int>(missing.size()),
+      plan_.NumCommunities(),
+      workspace_.CommunitiesDir().c_str(),
+      VectorToCSV(missing).c_str());
+  return missing.empty();
 }
 
 void CommunityMapperController::EndPhase(const std::string& name,
@@ -404,8 +400,6 @@ bool CommunityMapperController::Merge() {
   return true;
 }
 
-void CommunityMapperController::Run() { RunAllStages(); }
-
 bool CommunityMapperController::RunAllStages() {
   Timer run_timer;
   run_timer.Start();
@@ -426,11 +420,9 @@ bool CommunityMapperController::RunAllStages() {
     (IsReconstructed(c) ? summary_.reused_communities : to_reconstruct)
         .push_back(c);
   }
-  if (!summary_.reused_communities.empty()) {
-    LOG(INFO) << "Reusing the communities reconstructed by an earlier run of "
-                 "this plan:"
-              << SpaceSeparated(summary_.reused_communities);
-  }
+  LOG_IF(INFO, !summary_.reused_communities.empty())
+      << "Reusing the communities reconstructed by an earlier run of this plan:"
+      << SpaceSeparated(summary_.reused_communities);
   const int num_threads = GetEffectiveNumThreads(-1);
   const int num_workers =
       options_.num_workers > 0
@@ -472,8 +464,6 @@ bool CommunityMapperController::RunAllStages() {
     return false;
   }
 
-  // Pairwise similarities, their averaging, global refinement and
-  // registration (community_merger.h).
   LOG_HEADING1("3. Merging the communities");
   const bool merged = Merge();
   LogCommunityMapperSummary(summary_);

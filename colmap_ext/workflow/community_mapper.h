@@ -50,7 +50,6 @@ class CommunityMapperController : public BaseController {
     // fills them in); the later stages refuse a plan made with others.
     std::string plan_options;
 
-    // Community detection (community_detection.h).
     CommunityDetectionOptions community_detection;
 
     // Edge weights for community detection: 1 (the paper) or inlier count.
@@ -77,7 +76,6 @@ class CommunityMapperController : public BaseController {
     // min_num_matches is the view graph's too.
     IncrementalPipelineOptions incremental_options;
 
-    // The merge stage's options, with this struct's inputs in effect.
     CommunityMergerOptions MergeOptions() const;
 
     // incremental_options for one community's images (sorted), with
@@ -115,8 +113,7 @@ class CommunityMapperController : public BaseController {
   // False if a stage failed (logged).
   bool RunAllStages();
 
-  // RunAllStages(), as a BaseController.
-  void Run() override;
+  void Run() override { RunAllStages(); }
 
   // What happened (community_mapper_summary.h).
   const CommunityMapperSummary& GetSummary() const { return summary_; }

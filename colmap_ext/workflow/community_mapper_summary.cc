@@ -75,10 +75,9 @@ void LogCommunityMapperSummary(const CommunityMapperSummary& summary) {
       summary.num_estimated_similarities,
       summary.num_kept_similarities,
       summary.num_estimated_similarities - summary.num_kept_similarities);
-  if (!summary.reused_communities.empty()) {
-    LOG(INFO) << "Communities reused from an earlier run of this plan:"
-              << SpaceSeparated(summary.reused_communities);
-  }
+  LOG_IF(INFO, !summary.reused_communities.empty())
+      << "Communities reused from an earlier run of this plan:"
+      << SpaceSeparated(summary.reused_communities);
   int num_registered = 0;
   for (size_t m = 0; m < summary.model_num_registered.size(); ++m) {
     LOG(INFO) << StringPrintf("Model %d: %d images",

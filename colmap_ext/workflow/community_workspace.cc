@@ -217,6 +217,11 @@ CommunityPlan CommunityPlanFromText(const std::string& text) {
   CommunityPlan plan;
   std::istringstream stream(text);
   std::string line;
+  const auto check_line = [&line](const bool well_formed) {
+    if (!well_formed) {
+      throw std::invalid_argument("malformed line '" + line + "'");
+    }
+  };
   bool in_options = false;
   bool has_num_communities = false;
   bool has_options = false;
@@ -244,20 +249,14 @@ CommunityPlan CommunityPlanFromText(const std::string& text) {
       has_options = true;
     } else if (key == "max_modularity") {
       fields >> plan.max_modularity;
-      if (fields.fail()) {
-        throw std::invalid_argument("malformed line '" + line + "'");
-      }
+      check_line(!fields.fail());
     } else if (key == "num_view_graph_components") {
       fields >> plan.num_view_graph_components;
-      if (fields.fail() || plan.num_view_graph_components < 0) {
-        throw std::invalid_argument("malformed line '" + line + "'");
-      }
+      check_line(!fields.fail() && plan.num_view_graph_components >= 0);
     } else if (key == "num_communities") {
       int num_communities = -1;
       fields >> num_communities;
-      if (fields.fail() || num_communities < 0) {
-        throw std::invalid_argument("malformed line '" + line + "'");
-      }
+      check_line(!fields.fail() && num_communities >= 0);
       plan.communities.resize(num_communities);
       has_num_communities = true;
     } else if (key == "image") {
@@ -266,11 +265,9 @@ CommunityPlan CommunityPlanFromText(const std::string& text) {
       fields >> community >> kind;
       std::string name;
       std::getline(fields, name);
-      if (fields.fail() || !has_num_communities || community < 0 ||
-          community >= plan.NumCommunities() || name.size() < 2 ||
-          (kind != "own" && kind != "borrowed")) {
-        throw std::invalid_argument("malformed line '" + line + "'");
-      }
+      check_line(!fields.fail() && has_num_communities && community >= 0 &&
+                 community < plan.NumCommunities() && name.size() >= 2 &&
+                 (kind == "own" || kind == "borrowed"));
       name = name.substr(1);
       (kind == "own" ? plan.communities[community].own_image_names
                      : plan.communities[community].borrowed_image_names)
@@ -374,14 +371,13 @@ std::string PlanMismatch(const CommunityPlan& plan,
   }
   const std::map<std::string, std::string> planned = OptionLines(plan.options);
   const std::map<std::string, std::string> given = OptionLines(options);
-  for (const auto& key_and_value : given) {
-    const auto it = planned.find(key_and_value.first);
+  for (const auto& [key, value] : given) {
+    const auto it = planned.find(key);
     if (it == planned.end()) {
-      return "the plan has no option " + key_and_value.first;
+      return "the plan has no option " + key;
     }
-    if (it->second != key_and_value.second) {
-      return "--" + key_and_value.first + " is " + key_and_value.second +
-             ", the plan's is " + it->second;
+    if (it->second != value) {
+      return "--" + key + " is " + value + ", the plan's is " + it->second;
     }
   }
   for (const auto& key_and_value : planned) {

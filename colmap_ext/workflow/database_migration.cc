@@ -68,10 +68,6 @@ bool IsColmap3Database(const std::string& path) {
   return database.HasTable("images") && !database.HasTable("frames");
 }
 
-std::string Colmap3BackupPath(const std::string& path) {
-  return path + ".colmap3";
-}
-
 void MigrateColmap3Database(const std::string& path) {
   const std::string backup_path = Colmap3BackupPath(path);
   if (ExistsFile(backup_path)) {

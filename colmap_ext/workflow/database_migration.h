@@ -21,8 +21,10 @@ namespace colmap {
 // and frames tables (false for a missing file or an empty one).
 bool IsColmap3Database(const std::string& path);
 
-// Where MigrateColmap3Database keeps the original: `path` + ".colmap3".
-std::string Colmap3BackupPath(const std::string& path);
+// Where MigrateColmap3Database keeps the original.
+inline std::string Colmap3BackupPath(const std::string& path) {
+  return path + ".colmap3";
+}
 
 // Migrates the COLMAP 3 database at `path` as above, the original renamed to
 // Colmap3BackupPath(path). Throws, with `path` as it was, where any step

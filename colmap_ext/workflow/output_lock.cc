@@ -59,8 +59,6 @@ std::string HolderText(const std::string& holder) {
 
 }  // namespace
 
-OutputLock::~OutputLock() { Release(); }
-
 std::string OutputLock::Acquire(const std::string& folder) {
   THROW_CHECK(path_.empty()) << "the lock is held already";
   const std::string path =

@@ -23,8 +23,7 @@ class OutputLock {
   OutputLock() = default;
   OutputLock(const OutputLock&) = delete;
   OutputLock& operator=(const OutputLock&) = delete;
-  // Releases the lock if held.
-  ~OutputLock();
+  ~OutputLock() { Release(); }
 
   // Takes the lock of `folder`, which must exist. Returns an empty string,
   // or why the lock cannot be had (its holder, and what to do).
