@@ -155,10 +155,13 @@ PairOutcome EstimatePairSimilarity(
       },
       &num_rejected);
   SharedImageAgreement agreement;
-  int num_supporting_images = 0;
+  int num_explained_cross_pairs = 0;
   if (similarity.success) {
-    num_supporting_images =
-        CountSupportingImages(model1, model2, similarity.inlier_point3D_ids);
+    num_explained_cross_pairs = CountExplainedCrossPairs(
+        model1,
+        model2,
+        similarity.second_from_first,
+        {cross_pairs.begin() + num_shared_images, cross_pairs.end()});
     agreement =
         CheckSharedImages(model1,
                           model2,
@@ -175,13 +178,13 @@ PairOutcome EstimatePairSimilarity(
       static_cast<int>(correspondences.Size()),
       rejected.c_str(),
       similarity.success
-          ? StringPrintf("%d inliers seen by %d images or more of each "
-                         "model, scale %.4f, co-visible pairs "
+          ? StringPrintf("%d inliers, %d cross pairs explained, "
+                         "scale %.4f, co-visible pairs "
                          "verified %d of %d across, %d of %d inside, "
                          "shared images placed alike %d of %d (largest "
                          "difference %.1f deg, %.2f spreads): used",
                          similarity.num_inliers,
-                         num_supporting_images,
+                         num_explained_cross_pairs,
                          similarity.second_from_first.scale(),
                          covisibility.cross.num_verified,
                          covisibility.cross.num_predicted,
@@ -207,7 +210,7 @@ PairOutcome EstimatePairSimilarity(
   relative.points1 = similarity.inlier_points1;
   relative.points2 = similarity.inlier_points2;
   relative.num_inliers = similarity.num_inliers;
-  relative.num_supporting_images = num_supporting_images;
+  relative.num_explained_cross_pairs = num_explained_cross_pairs;
   relative.num_shared_images = agreement.num_shared_images;
   relative.num_agreeing_shared_images = agreement.num_agreeing;
   outcome.has_similarity = true;

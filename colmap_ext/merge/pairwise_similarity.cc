@@ -2,6 +2,8 @@
 #include "colmap_ext/util/option_check.h"
 
 #include "colmap/estimators/solvers/similarity_transform.h"
+#include "colmap/estimators/two_view_geometry.h"
+#include "colmap/geometry/essential_matrix.h"
 #include "colmap/math/math.h"
 #include "colmap/util/logging.h"
 
@@ -98,7 +100,6 @@ PairwiseSimilarity EstimatePairwiseSimilarity(
     const PairwiseSimilarityOptions& options) {
   THROW_CHECK(options.Check());
   PairwiseSimilarity result;
-  result.num_correspondences = static_cast<int>(correspondences.Size());
   if (correspondences.Size() <
       static_cast<size_t>(std::max(3, options.min_num_inliers))) {
     return result;
@@ -173,25 +174,6 @@ PairwiseSimilarity EstimatePairwiseSimilarity(
   return similarity;
 }
 
-int CountSupportingImages(
-    const Reconstruction& reconstruction1,
-    const Reconstruction& reconstruction2,
-    const std::vector<std::pair<point3D_t, point3D_t>>& point3D_ids) {
-  std::set<image_t> images1;
-  std::set<image_t> images2;
-  for (const auto& [point3D_id1, point3D_id2] : point3D_ids) {
-    for (const TrackElement& element :
-         reconstruction1.Point3D(point3D_id1).track.Elements()) {
-      images1.insert(element.image_id);
-    }
-    for (const TrackElement& element :
-         reconstruction2.Point3D(point3D_id2).track.Elements()) {
-      images2.insert(element.image_id);
-    }
-  }
-  return static_cast<int>(std::min(images1.size(), images2.size()));
-}
-
 SharedImageAgreement CheckSharedImages(const Reconstruction& reconstruction1,
                                        const Reconstruction& reconstruction2,
                                        const Sim3d& second_from_first,
@@ -229,6 +211,47 @@ SharedImageAgreement CheckSharedImages(const Reconstruction& reconstruction1,
         std::max(agreement.max_relative_distance, relative_distance);
   }
   return agreement;
+}
+
+int CountExplainedCrossPairs(const Reconstruction& reconstruction1,
+                             const Reconstruction& reconstruction2,
+                             const Sim3d& second_from_first,
+                             const std::vector<CrossPairMatches>& cross_pairs) {
+  const double max_error = TwoViewGeometryOptions().ransac_options.max_error;
+  int num_explained = 0;
+  for (const CrossPairMatches& pair : cross_pairs) {
+    if (!reconstruction1.ExistsImage(pair.image_id1) ||
+        !reconstruction2.ExistsImage(pair.image_id2) ||
+        !reconstruction1.Image(pair.image_id1).HasPose() ||
+        !reconstruction2.Image(pair.image_id2).HasPose()) {
+      continue;
+    }
+    const Image& image1 = reconstruction1.Image(pair.image_id1);
+    const Image& image2 = reconstruction2.Image(pair.image_id2);
+    // cam2_from_cam1, in the second model's units.
+    const Rigid3d cam2_from_world2 = image2.CamFromWorld();
+    const Eigen::Matrix3d E = EssentialMatrixFromPose(Rigid3d(
+        cam2_from_world2.rotation() * second_from_first.rotation() *
+            image1.CamFromWorld().rotation().inverse(),
+        cam2_from_world2 * (second_from_first * image1.ProjectionCenter())));
+    const double max_residual =
+        std::pow(0.5 * (image1.CameraPtr()->CamFromImgThreshold(max_error) +
+                        image2.CameraPtr()->CamFromImgThreshold(max_error)),
+                 2);
+    size_t num_within = 0;
+    for (const FeatureMatch& match : pair.matches) {
+      const std::optional<Eigen::Vector2d> point1 =
+          image1.CameraPtr()->CamFromImg(image1.Point2D(match.point2D_idx1).xy);
+      const std::optional<Eigen::Vector2d> point2 =
+          image2.CameraPtr()->CamFromImg(image2.Point2D(match.point2D_idx2).xy);
+      num_within +=
+          point1 && point2 &&
+          ComputeSquaredSampsonError(
+              point1->homogeneous(), point2->homogeneous(), E) <= max_residual;
+    }
+    num_explained += 2 * num_within > pair.matches.size();
+  }
+  return num_explained;
 }
 
 }  // namespace colmap

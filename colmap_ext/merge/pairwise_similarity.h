@@ -76,7 +76,6 @@ struct PairwiseSimilarity {
   bool success = false;
   // X2 = s R X1 + t.
   Sim3d second_from_first;
-  int num_correspondences = 0;
   int num_inliers = 0;
   // The inlier correspondences (translation averaging re-uses them).
   std::vector<Eigen::Vector3d> inlier_points1;
@@ -106,8 +105,6 @@ struct SharedImageAgreement {
   // Largest rotation (degrees) and relative distance over the shared images.
   double max_rotation_deg = 0.0;
   double max_relative_distance = 0.0;
-
-  bool AllAgree() const { return num_agreeing == num_shared_images; }
 };
 
 // A shared image agrees with the transform if it maps its pose in the first
@@ -118,13 +115,14 @@ SharedImageAgreement CheckSharedImages(const Reconstruction& reconstruction1,
                                        const Sim3d& second_from_first,
                                        double spread);
 
-// The fewer, over the two reconstructions, of the registered images that
-// observe the points of `point3D_ids` (pairs of ids in the first and the
-// second): how much of each model a similarity from these points rests on.
-int CountSupportingImages(
-    const Reconstruction& reconstruction1,
-    const Reconstruction& reconstruction2,
-    const std::vector<std::pair<point3D_t, point3D_t>>& point3D_ids);
+// How many of `cross_pairs` (images of the first and of the second
+// reconstruction) `second_from_first` explains: the two cameras as it places
+// them put most of the pair's matches within COLMAP's two-view verification
+// error (TwoViewGeometryOptions) of their epipolar lines.
+int CountExplainedCrossPairs(const Reconstruction& reconstruction1,
+                             const Reconstruction& reconstruction2,
+                             const Sim3d& second_from_first,
+                             const std::vector<CrossPairMatches>& cross_pairs);
 
 // A similarity between two communities' models, as the averaging takes it
 // (similarity_averaging.h).
@@ -138,9 +136,9 @@ struct RelativeSimilarity {
   std::vector<Eigen::Vector3d> points2;
   // Support (number of inlier correspondences).
   double num_inliers = 0;
-  // CountSupportingImages of its inlier points (0: not known, the
-  // communities' sizes stand in).
-  int num_supporting_images = 0;
+  // The verified pairs between the two communities' own images whose
+  // matches it explains (CountExplainedCrossPairs).
+  int num_explained_cross_pairs = 0;
   // Images both models registered, and how many of them the similarity
   // maps onto their other copy (pairwise_similarity.h, CheckSharedImages).
   int num_shared_images = 0;

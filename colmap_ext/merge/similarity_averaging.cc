@@ -241,23 +241,17 @@ bool SharedImagesContradict(const RelativeSimilarity& edge) {
 // community a majority of right edges still outweighs a minority of wrong
 // ones, as L1 needs.
 std::vector<double> EdgeWeights(
-    const std::vector<AveragedCommunity>& communities,
     const std::vector<RelativeSimilarity>& relative_similarities) {
   constexpr double kWeightRange = 0.4;
   std::vector<double> edge_weights(relative_similarities.size());
   double max_weight = 0;
   for (size_t e = 0; e < relative_similarities.size(); ++e) {
+    // The image pairs that confirm the similarity, fewer below full support.
     const RelativeSimilarity& edge = relative_similarities[e];
-    double support =
-        std::max(1,
-                 std::min(communities[edge.community1].num_images,
-                          communities[edge.community2].num_images));
-    if (edge.num_supporting_images > 0) {
-      support = std::min<double>(support, edge.num_supporting_images);
-    }
-    edge_weights[e] = support * std::min(1.0,
-                                         static_cast<double>(edge.num_inliers) /
-                                             kFullSupportNumInliers);
+    edge_weights[e] = std::max(1,
+                               edge.num_explained_cross_pairs +
+                                   edge.num_agreeing_shared_images) *
+                      std::min(1.0, edge.num_inliers / kFullSupportNumInliers);
     max_weight = std::max(max_weight, edge_weights[e]);
   }
   for (double& weight : edge_weights) {
@@ -469,7 +463,7 @@ SimilarityAveragingResult AverageSimilarities(
   }
 
   AveragingRounds rounds{communities, relative_similarities, options};
-  rounds.edge_weights = EdgeWeights(communities, relative_similarities);
+  rounds.edge_weights = EdgeWeights(relative_similarities);
   SimilarityAveragingResult& result = rounds.result;
   result.world_from_community.assign(num_communities, Sim3d());
   result.edges.resize(relative_similarities.size());

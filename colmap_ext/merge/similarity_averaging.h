@@ -31,16 +31,16 @@
 
 namespace colmap {
 
-// An edge with fewer inliers than this counts with its weight (the images it
-// rests on) times num_inliers / kFullSupportNumInliers, and a bridge with
-// fewer needs two of its shared images placed alike: a hundred points fitted
-// by one similarity do not fit by chance.
+// An edge with fewer inliers than this counts with its weight (the image
+// pairs that confirm it) times num_inliers / kFullSupportNumInliers, and a
+// bridge with fewer needs two of its shared images placed alike: a hundred
+// points fitted by one similarity do not fit by chance.
 inline constexpr int kFullSupportNumInliers = 100;
 
 // A community as the averaging sees it.
 struct AveragedCommunity {
-  // Registered images of its model: the most its edges can weigh; the
-  // largest community of each part is the part's reference.
+  // Registered images of its model: the largest community of each part is
+  // the part's reference.
   int num_images = 0;
 };
 

@@ -679,12 +679,11 @@ TEST(AverageSimilarities, WeaklySupportedEdgeTakesUpTheDisagreement) {
   ExpectAlignedWithoutEdge(result, problem, bent);
 }
 
-TEST(AverageSimilarities, EdgeRestingOnFewImagesTakesUpTheDisagreement) {
-  // A triangle whose two edges at the smallest community weigh the same by
-  // the communities' sizes and have full support, but the wrong one rests on
-  // a few images of its larger community (a stretch of it that its own
-  // mapper misplaced, say, with the points it links by): it alone is
-  // dropped and the smallest community follows its other edge.
+TEST(AverageSimilarities, EdgeFewImagePairsConfirmTakesUpTheDisagreement) {
+  // A triangle whose edges all have full support, but the wrong one explains
+  // the matches of fewer image pairs between its communities (it rests on a
+  // stretch of one that its own mapper misplaced, say): it alone is dropped
+  // and the smallest community follows its other edge.
   int bent = -1;
   Problem problem = MakeBentCycle({50, 47, 29}, 24, 1, 2, &bent);
   const int right = FindEdge(problem, 0, 2);
@@ -694,18 +693,18 @@ TEST(AverageSimilarities, EdgeRestingOnFewImagesTakesUpTheDisagreement) {
   for (RelativeSimilarity& edge : problem.edges) {
     edge.num_inliers = 1500;
   }
-  problem.edges[other].num_supporting_images = 32;
-  problem.edges[right].num_supporting_images = 25;
-  problem.edges[bent].num_supporting_images = 14;
+  problem.edges[other].num_explained_cross_pairs = 32;
+  problem.edges[right].num_explained_cross_pairs = 25;
+  problem.edges[bent].num_explained_cross_pairs = 14;
   ExpectAlignedWithoutEdge(
       AverageSimilarities(
           problem.Communities(), problem.edges, SimilarityAveragingOptions()),
       problem,
       bent);
 
-  // Resting on many images, the same wrong edge outweighs the right one and
+  // Confirmed by more pairs, the same wrong edge outweighs the right one and
   // takes the smallest community with it.
-  problem.edges[bent].num_supporting_images = 29;
+  problem.edges[bent].num_explained_cross_pairs = 29;
   const SimilarityAveragingResult trusting = AverageSimilarities(
       problem.Communities(), problem.edges, SimilarityAveragingOptions());
   EXPECT_FALSE(trusting.edges[right].kept);

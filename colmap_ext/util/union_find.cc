@@ -23,11 +23,8 @@ int DisjointSets::Find(int element) {
 bool DisjointSets::Union(const int element1, const int element2) {
   const int root1 = Find(element1);
   const int root2 = Find(element2);
-  if (root1 == root2) {
-    return false;
-  }
   parent_[std::max(root1, root2)] = std::min(root1, root2);
-  return true;
+  return root1 != root2;
 }
 
 std::vector<int> ConnectedComponentLabels(
