@@ -8,6 +8,7 @@
 
 #include "colmap/math/random.h"
 #include "colmap/scene/database.h"
+#include "colmap/sfm/observation_manager.h"
 #include "colmap/util/logging.h"
 #include "colmap/util/misc.h"
 #include "colmap/util/string.h"
@@ -188,13 +189,10 @@ void CommunityMerger::AverageSimilarities() {
     const auto& report = averaging_.edges[e];
     result_.num_kept_similarities += report.kept ? 1 : 0;
     LOG(INFO) << StringPrintf(
-        "Communities %d-%d: displacement %.4f (rotation %.3f deg, scale "
-        "%.4f) -> %s",
+        "Communities %d-%d: displacement %.4f -> %s",
         similarities[e].community1,
         similarities[e].community2,
         report.relative_displacement,
-        report.rotation_residual_deg,
-        report.log_scale_residual,
         report.kept ? "kept"
         : report.contradicted
             ? "dropped (the images both models registered contradict it)"
@@ -342,6 +340,20 @@ void CommunityMerger::RefinePart(
 void CommunityMerger::RegisterRemainingImagesOfParts() {
   std::unordered_set<image_t> registered_image_ids;
   for (PartModel& part_model : part_models_) {
+    // A part whose images the registration took in part into an earlier
+    // model joins it on the images both hold, as hierarchical_mapper merges
+    // its clusters (COLMAP's MergeAndFilterReconstructions, its 8 px).
+    const auto earlier = std::find_if(
+        result_.models.begin(), result_.models.end(), [&](const auto& model) {
+          return MergeAndFilterReconstructions(8.0, *part_model.model, *model);
+        });
+    if (earlier != result_.models.end()) {
+      const std::vector<image_t> reg_image_ids = (*earlier)->RegImageIds();
+      registered_image_ids.insert(reg_image_ids.begin(), reg_image_ids.end());
+      LOG(INFO) << "A part merged into an earlier model of "
+                << reg_image_ids.size() << " images";
+      continue;
+    }
     std::unordered_set<image_t> kept_image_ids;
     for (const image_t image_id : part_model.model->RegImageIds()) {
       if (registered_image_ids.count(image_id) == 0) {

@@ -215,14 +215,6 @@ SimilarityAveragingResult::EdgeReport ComputeEdgeResiduals(
       spread > 0
           ? displacement / spread
           : (displacement == 0 ? 0.0 : std::numeric_limits<double>::infinity());
-  // Predicted R_ij = R_j^T R_i, s_ij = s_i / s_j.
-  const Eigen::Quaterniond predicted_rotation =
-      world_from_second.rotation().inverse() * world_from_first.rotation();
-  report.rotation_residual_deg = RadToDeg(
-      predicted_rotation.angularDistance(edge.second_from_first.rotation()));
-  report.log_scale_residual = std::abs(
-      std::log(world_from_first.scale()) - std::log(world_from_second.scale()) -
-      std::log(edge.second_from_first.scale()));
   return report;
 }
 

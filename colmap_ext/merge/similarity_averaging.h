@@ -58,10 +58,6 @@ struct SimilarityAveragingResult {
     // points in the world frame, relative to their spread: the residual an
     // edge is judged by (see max_relative_displacement).
     double relative_displacement = 0.0;
-    // How far the edge's own rotation and scale ratio are from the
-    // averaging's (degrees, |log(s_i / (s_j s_ij))|), reported only.
-    double rotation_residual_deg = 0.0;
-    double log_scale_residual = 0.0;
     // Whether the edge joins its communities in the result.
     bool kept = false;
     // Left out from the start: its shared images contradict it (at least
