@@ -52,7 +52,7 @@ std::vector<CrossPairMatches> SharedImageMatches(const Reconstruction& model1,
                                                  const Reconstruction& model2) {
   std::vector<CrossPairMatches> cross_pairs;
   for (const image_t image_id : model1.RegImageIds()) {
-    if (model2.ExistsImage(image_id) && model2.Image(image_id).HasPose()) {
+    if (HasPosedImage(model2, image_id)) {
       cross_pairs.push_back({image_id, image_id, {}});
       for (point2D_t idx = 0; idx < model1.Image(image_id).NumPoints2D();
            ++idx) {

@@ -16,6 +16,7 @@
 #include "colmap/util/types.h"
 
 #include <algorithm>
+#include <set>
 
 namespace colmap {
 namespace {
@@ -340,15 +341,22 @@ void CommunityMerger::RefinePart(
 void CommunityMerger::RegisterRemainingImagesOfParts() {
   std::unordered_set<image_t> registered_image_ids;
   for (PartModel& part_model : part_models_) {
-    // A part whose images the registration took in part into an earlier
+    // A part whose images the registration took in part into one earlier
     // model joins it on the images both hold, as hierarchical_mapper merges
-    // its clusters (COLMAP's MergeAndFilterReconstructions, its 8 px).
-    const auto earlier = std::find_if(
-        result_.models.begin(), result_.models.end(), [&](const auto& model) {
-          return MergeAndFilterReconstructions(8.0, *part_model.model, *model);
-        });
-    if (earlier != result_.models.end()) {
-      const std::vector<image_t> reg_image_ids = (*earlier)->RegImageIds();
+    // its clusters (COLMAP's MergeAndFilterReconstructions, its 8 px). Not
+    // where two took some: the other's would then be in two models.
+    std::set<Reconstruction*> holders;
+    for (const image_t image_id : part_model.model->RegImageIds()) {
+      for (const auto& model : result_.models) {
+        if (HasPosedImage(*model, image_id)) {
+          holders.insert(model.get());
+        }
+      }
+    }
+    Reconstruction* holder = holders.size() == 1 ? *holders.begin() : nullptr;
+    if (holder &&
+        MergeAndFilterReconstructions(8.0, *part_model.model, *holder)) {
+      const std::vector<image_t> reg_image_ids = holder->RegImageIds();
       registered_image_ids.insert(reg_image_ids.begin(), reg_image_ids.end());
       LOG(INFO) << "A part merged into an earlier model of "
                 << reg_image_ids.size() << " images";
@@ -377,8 +385,7 @@ void CommunityMerger::RegisterRemainingImagesOfParts() {
       for (const int c : communities) {
         for (const image_t image_id : communities_.own_image_ids[c]) {
           if (registered_image_ids.count(image_id) == 0 &&
-              !(model->ExistsImage(image_id) &&
-                model->Image(image_id).HasPose())) {
+              !HasPosedImage(*model, image_id)) {
             remaining_image_names.insert(communities_.name_of_image.at(image_id));
           }
         }

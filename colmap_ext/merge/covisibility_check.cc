@@ -1,4 +1,5 @@
 #include "colmap_ext/merge/covisibility_check.h"
+#include "colmap_ext/merge/pairwise_similarity.h"
 #include "colmap_ext/util/option_check.h"
 
 #include "colmap/math/math.h"
@@ -212,14 +213,12 @@ CovisibilityCheck CheckCovisibility(
   }
 
   for (const ImageView& view1 : views1) {
-    if (reconstruction2.ExistsImage(view1.image_id) &&
-        reconstruction2.Image(view1.image_id).HasPose()) {
+    if (HasPosedImage(reconstruction2, view1.image_id)) {
       continue;
     }
     for (const ImageView& view2 : views2) {
       if ((view1.center - view2.center).norm() > max_distance ||
-          (reconstruction1.ExistsImage(view2.image_id) &&
-           reconstruction1.Image(view2.image_id).HasPose())) {
+          HasPosedImage(reconstruction1, view2.image_id)) {
         continue;
       }
       count_pair(view1, view2, &check.cross);

@@ -47,10 +47,8 @@ PointCorrespondences FindPointCorrespondences(
     const std::vector<CrossPairMatches>& cross_pairs) {
   std::set<std::pair<point3D_t, point3D_t>> point3D_pairs;
   for (const CrossPairMatches& cross_pair : cross_pairs) {
-    if (!reconstruction1.ExistsImage(cross_pair.image_id1) ||
-        !reconstruction1.Image(cross_pair.image_id1).HasPose() ||
-        !reconstruction2.ExistsImage(cross_pair.image_id2) ||
-        !reconstruction2.Image(cross_pair.image_id2).HasPose()) {
+    if (!HasPosedImage(reconstruction1, cross_pair.image_id1) ||
+        !HasPosedImage(reconstruction2, cross_pair.image_id2)) {
       continue;
     }
     const Image& image1 = reconstruction1.Image(cross_pair.image_id1);
@@ -183,8 +181,7 @@ SharedImageAgreement CheckSharedImages(const Reconstruction& reconstruction1,
   THROW_CHECK_GT(spread, 0);
   SharedImageAgreement agreement;
   for (const image_t image_id : reconstruction1.RegImageIds()) {
-    if (!reconstruction2.ExistsImage(image_id) ||
-        !reconstruction2.Image(image_id).HasPose()) {
+    if (!HasPosedImage(reconstruction2, image_id)) {
       continue;
     }
     const Image& image1 = reconstruction1.Image(image_id);
@@ -220,10 +217,8 @@ int CountExplainedCrossPairs(const Reconstruction& reconstruction1,
   const double max_error = TwoViewGeometryOptions().ransac_options.max_error;
   int num_explained = 0;
   for (const CrossPairMatches& pair : cross_pairs) {
-    if (!reconstruction1.ExistsImage(pair.image_id1) ||
-        !reconstruction2.ExistsImage(pair.image_id2) ||
-        !reconstruction1.Image(pair.image_id1).HasPose() ||
-        !reconstruction2.Image(pair.image_id2).HasPose()) {
+    if (!HasPosedImage(reconstruction1, pair.image_id1) ||
+        !HasPosedImage(reconstruction2, pair.image_id2)) {
       continue;
     }
     const Image& image1 = reconstruction1.Image(pair.image_id1);

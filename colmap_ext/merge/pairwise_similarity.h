@@ -32,6 +32,13 @@ Eigen::Vector3d CoordinateWiseMedian(
 // that a minority of outliers does not inflate (0 for no points).
 double MedianDistanceToMedian(const std::vector<Eigen::Vector3d>& points);
 
+// Whether `reconstruction` holds `image_id` with a pose (registered).
+inline bool HasPosedImage(const Reconstruction& reconstruction,
+                          const image_t image_id) {
+  return reconstruction.ExistsImage(image_id) &&
+         reconstruction.Image(image_id).HasPose();
+}
+
 // The verified matches of one view-graph edge between two communities.
 struct CrossPairMatches {
   // Image of the first and of the second community.
