@@ -203,7 +203,6 @@ bool ParseCommand(int argc,
   command->stage = stage;
   CommunityMapperController::Options& mapper_options =
       command->options.mapper;
-  std::string output_path;
 
   std::vector<char*> arguments(argv, argv + argc);
   if ((stage == CommunityMapperStage::kCommunity &&
@@ -215,7 +214,7 @@ bool ParseCommand(int argc,
   OptionManager options;
   options.AddDatabaseOptions();
   options.AddImageOptions();
-  options.AddRequiredOption("output_path", &output_path);
+  options.AddRequiredOption("output_path", &mapper_options.output_path);
   options.AddDefaultOption("image_list_path",
                            &command->image_list_path,
                            "reconstruct only the images named in this file, "
@@ -236,7 +235,6 @@ bool ParseCommand(int argc,
 
   mapper_options.database_path = options.database_path->string();
   mapper_options.image_path = options.image_path->string();
-  mapper_options.output_path = output_path;
   mapper_options.incremental_options = *options.mapper;
 
   // project.ini: output_path (and image_list_path) first, as options
@@ -245,7 +243,7 @@ bool ParseCommand(int argc,
   command->colmap_ini = ColmapOptionsToIni(
       options, {"output_path", "image_list_path", "community_id"});
   command->project_ini =
-      "output_path=" + output_path + "\n" +
+      "output_path=" + mapper_options.output_path + "\n" +
       (command->image_list_path.empty()
            ? ""
            : "image_list_path=" + command->image_list_path + "\n") +

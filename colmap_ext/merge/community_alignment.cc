@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <string>
 
@@ -38,8 +39,7 @@ namespace {
 // What one pair of communities gives: its similarity (if usable), its false
 // cross pairs and its log line.
 struct PairOutcome {
-  bool has_similarity = false;
-  RelativeSimilarity similarity;
+  std::optional<RelativeSimilarity> similarity;
   std::vector<image_pair_t> false_pairs;
   // The inlier point pairs of every transform the co-visibility check rejected.
   std::set<std::pair<point3D_t, point3D_t>> rejected_inliers;
@@ -203,7 +203,7 @@ PairOutcome EstimatePairSimilarity(
   if (!similarity.success) {
     return outcome;
   }
-  RelativeSimilarity& relative = outcome.similarity;
+  RelativeSimilarity& relative = outcome.similarity.emplace();
   relative.community1 = community1;
   relative.community2 = community2;
   relative.second_from_first = similarity.second_from_first;
@@ -213,7 +213,6 @@ PairOutcome EstimatePairSimilarity(
   relative.num_explained_cross_pairs = num_explained_cross_pairs;
   relative.num_shared_images = agreement.num_shared_images;
   relative.num_agreeing_shared_images = agreement.num_agreeing;
-  outcome.has_similarity = true;
   return outcome;
 }
 
@@ -266,10 +265,9 @@ CommunitySimilarities EstimateCommunitySimilarities(
   // thousands of correspondences, and RANSAC over them is slow).
   std::vector<PairOutcome> outcomes(pairs.size());
   {
-    ThreadPool thread_pool(
-        std::max(1,
-                 std::min(static_cast<int>(pairs.size()),
-                          GetEffectiveNumThreads(num_threads))));
+    ThreadPool thread_pool(std::clamp(static_cast<int>(pairs.size()),
+                                      1,
+                                      GetEffectiveNumThreads(num_threads)));
     for (size_t i = 0; i < pairs.size(); ++i) {
       thread_pool.AddTask([&, i]() {
         const int community1 = pairs[i]->first.first;
@@ -296,8 +294,8 @@ CommunitySimilarities EstimateCommunitySimilarities(
     LOG(INFO) << outcome.log;
     result.false_pairs.insert(outcome.false_pairs.begin(),
                               outcome.false_pairs.end());
-    if (outcome.has_similarity) {
-      result.similarities.push_back(std::move(outcome.similarity));
+    if (outcome.similarity) {
+      result.similarities.push_back(std::move(*outcome.similarity));
     }
   }
   return result;

@@ -17,19 +17,15 @@ class FrameSources {
     for (size_t r = 0; r < reconstructions.size(); ++r) {
       const Reconstruction& reconstruction = *reconstructions[r];
       for (const frame_t frame_id : reconstruction.RegFrameIds()) {
-        bool owns_image = false;
         for (const data_t& data_id :
              reconstruction.Frame(frame_id).ImageIds()) {
           if (owned_image_ids[r].count(data_id.id) == 0) {
             continue;
           }
-          owns_image = true;
           THROW_CHECK(owned.insert(data_id.id).second)
               << "Image " << reconstruction.Image(data_id.id).Name()
               << " is owned by two reconstructions.";
-        }
-        if (owns_image) {
-          source_.emplace(frame_id, r);
+          source_.emplace(frame_id, r);  // An earlier source stays.
         }
       }
     }
@@ -150,30 +146,18 @@ void JoinFrames(const std::vector<Reconstruction*>& reconstructions,
         continue;
       }
       const Frame& frame = reconstruction.Frame(frame_id);
-      Frame merged_frame;
-      merged_frame.SetFrameId(frame_id);
-      merged_frame.SetRigId(frame.RigId());
-      for (const data_t& data_id : frame.DataIds()) {
-        merged_frame.AddDataId(data_id);
-      }
-      merged->AddFrame(std::move(merged_frame));
+      Frame merged_frame = frame;
+      merged_frame.ResetRigPtr();
+      merged->AddFrame(std::move(merged_frame));  // Registered: it has a pose.
       for (const data_t& data_id : frame.ImageIds()) {
-        const Image& image = reconstruction.Image(data_id.id);
-        Image merged_image;
-        merged_image.SetImageId(image.ImageId());
-        merged_image.SetName(image.Name());
-        merged_image.SetCameraId(image.CameraId());
-        merged_image.SetFrameId(frame_id);
-        std::vector<Eigen::Vector2d> points2D;
-        points2D.reserve(image.NumPoints2D());
-        for (const Point2D& point2D : image.Points2D()) {
-          points2D.push_back(point2D.xy);
+        Image merged_image = reconstruction.Image(data_id.id);
+        merged_image.ResetCameraPtr();
+        merged_image.ResetFramePtr();
+        for (point2D_t idx = 0; idx < merged_image.NumPoints2D(); ++idx) {
+          merged_image.ResetPoint3DForPoint2D(idx);
         }
-        merged_image.SetPoints2D(points2D);
         merged->AddImage(std::move(merged_image));
       }
-      merged->Frame(frame_id).SetRigFromWorld(frame.RigFromWorld());
-      merged->RegisterFrame(frame_id);
     }
   }
 }
@@ -208,10 +192,9 @@ void JoinReconstructions(
           track.AddElement(track_el);
         }
       }
-      if (track.Length() == 0) {
-        continue;
+      if (track.Length() > 0) {
+        merged->AddPoint3D(point3D.xyz, std::move(track), point3D.color);
       }
-      merged->AddPoint3D(point3D.xyz, std::move(track), point3D.color);
     }
   }
 }

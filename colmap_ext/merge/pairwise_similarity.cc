@@ -11,6 +11,18 @@
 #include <set>
 
 namespace colmap {
+namespace {
+
+// Whether both keypoints of `match` exist: COLMAP's correspondence graph
+// skips a match whose index is beyond its image's keypoints.
+bool HasKeypoints(const Image& image1,
+                  const Image& image2,
+                  const FeatureMatch& match) {
+  return match.point2D_idx1 < image1.NumPoints2D() &&
+         match.point2D_idx2 < image2.NumPoints2D();
+}
+
+}  // namespace
 
 Eigen::Vector3d CoordinateWiseMedian(
     const std::vector<Eigen::Vector3d>& points) {
@@ -54,8 +66,7 @@ PointCorrespondences FindPointCorrespondences(
     const Image& image1 = reconstruction1.Image(cross_pair.image_id1);
     const Image& image2 = reconstruction2.Image(cross_pair.image_id2);
     for (const FeatureMatch& match : cross_pair.matches) {
-      if (match.point2D_idx1 >= image1.NumPoints2D() ||
-          match.point2D_idx2 >= image2.NumPoints2D()) {
+      if (!HasKeypoints(image1, image2, match)) {
         continue;
       }
       const Point2D& point2D1 = image1.Point2D(match.point2D_idx1);
@@ -98,8 +109,7 @@ PairwiseSimilarity EstimatePairwiseSimilarity(
     const PairwiseSimilarityOptions& options) {
   THROW_CHECK(options.Check());
   PairwiseSimilarity result;
-  if (correspondences.Size() <
-      static_cast<size_t>(std::max(3, options.min_num_inliers))) {
+  if (correspondences.Size() < static_cast<size_t>(options.min_num_inliers)) {
     return result;
   }
 
@@ -187,14 +197,13 @@ SharedImageAgreement CheckSharedImages(const Reconstruction& reconstruction1,
     const Image& image1 = reconstruction1.Image(image_id);
     const Image& image2 = reconstruction2.Image(image_id);
     // The pose in the second model that the transform predicts.
-    const Rigid3d cam_from_world1 = image1.CamFromWorld();
-    const Rigid3d cam_from_world2 = image2.CamFromWorld();
     const Eigen::Quaterniond predicted_rotation =
-        cam_from_world1.rotation() * second_from_first.rotation().inverse();
+        image1.CamFromWorld().rotation() *
+        second_from_first.rotation().inverse();
     const Eigen::Vector3d predicted_center =
         second_from_first * image1.ProjectionCenter();
     const double rotation_deg = RadToDeg(
-        predicted_rotation.angularDistance(cam_from_world2.rotation()));
+        predicted_rotation.angularDistance(image2.CamFromWorld().rotation()));
     const double relative_distance =
         (predicted_center - image2.ProjectionCenter()).norm() / spread;
     ++agreement.num_shared_images;
@@ -235,6 +244,9 @@ int CountExplainedCrossPairs(const Reconstruction& reconstruction1,
                  2);
     size_t num_within = 0;
     for (const FeatureMatch& match : pair.matches) {
+      if (!HasKeypoints(image1, image2, match)) {
+        continue;
+      }
       const std::optional<Eigen::Vector2d> point1 =
           image1.CameraPtr()->CamFromImg(image1.Point2D(match.point2D_idx1).xy);
       const std::optional<Eigen::Vector2d> point2 =

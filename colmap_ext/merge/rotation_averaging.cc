@@ -176,15 +176,11 @@ bool AverageRotations(int num_nodes,
   const Eigen::SparseMatrix<double> A =
       LinearSystemMatrix(num_nodes, relative_rotations, reference_node);
   // Per row: the confidence of its edge, relative to the largest.
-  double max_weight = 0;
-  for (const RelativeRotation& edge : relative_rotations) {
-    max_weight = std::max(max_weight, edge.weight);
-  }
   Eigen::VectorXd confidence(3 * relative_rotations.size());
   for (size_t e = 0; e < relative_rotations.size(); ++e) {
-    confidence.segment<3>(3 * e).setConstant(relative_rotations[e].weight /
-                                             max_weight);
+    confidence.segment<3>(3 * e).setConstant(relative_rotations[e].weight);
   }
+  confidence /= confidence.maxCoeff();
 
   // L1RA: the weighted matrix is factorised once for all iterations.
   {
@@ -217,8 +213,7 @@ bool AverageRotations(int num_nodes,
         LinearSystemResiduals(relative_rotations, *rotations);
     Eigen::VectorXd weights(A.rows());
     for (size_t e = 0; e < relative_rotations.size(); ++e) {
-      const double residual_sq = b.segment<3>(3 * e).squaredNorm();
-      const double denominator = residual_sq + sigma_sq;
+      const double denominator = b.segment<3>(3 * e).squaredNorm() + sigma_sq;
       weights.segment<3>(3 * e).setConstant(confidence(3 * e) * sigma_sq /
                                             (denominator * denominator));
     }

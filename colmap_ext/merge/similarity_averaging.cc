@@ -124,6 +124,11 @@ bool AveragePart(const std::vector<int>& nodes,
     edge_nodes.emplace_back(local.at(edge->community1),
                             local.at(edge->community2));
   }
+  const auto solve_differences =
+      [&](const int dim, const Eigen::VectorXd& b, Eigen::VectorXd* x) {
+        return SolveDifferenceSystem(
+            num_nodes, edge_nodes, edge_weights, dim, local_reference, b, x);
+      };
 
   // 1. Scale: log s_i - log s_j = log s_ij.
   Eigen::VectorXd log_scales;
@@ -132,13 +137,7 @@ bool AveragePart(const std::vector<int>& nodes,
     for (size_t e = 0; e < edges.size(); ++e) {
       b(e) = std::log(edges[e]->second_from_first.scale());
     }
-    if (!SolveDifferenceSystem(num_nodes,
-                               edge_nodes,
-                               edge_weights,
-                               /*dim=*/1,
-                               local_reference,
-                               b,
-                               &log_scales)) {
+    if (!solve_differences(/*dim=*/1, b, &log_scales)) {
       return false;
     }
   }
@@ -177,13 +176,7 @@ bool AveragePart(const std::vector<int>& nodes,
                                (*world_from_community)[edges[e]->community2]);
   }
   Eigen::VectorXd translations;
-  if (!SolveDifferenceSystem(num_nodes,
-                             edge_nodes,
-                             edge_weights,
-                             /*dim=*/3,
-                             local_reference,
-                             b,
-                             &translations)) {
+  if (!solve_differences(/*dim=*/3, b, &translations)) {
     return false;
   }
   for (size_t k = 0; k < nodes.size(); ++k) {
@@ -193,14 +186,12 @@ bool AveragePart(const std::vector<int>& nodes,
   return true;
 }
 
-// The residuals of `edge` under the placement `world_from_community`, as
-// the averaging judges its edges (see EdgeReport).
-SimilarityAveragingResult::EdgeReport ComputeEdgeResiduals(
-    const RelativeSimilarity& edge,
-    const std::vector<Sim3d>& world_from_community) {
+// The residual of `edge` under the placement `world_from_community`, as the
+// averaging judges its edges (EdgeReport::relative_displacement).
+double RelativeDisplacement(const RelativeSimilarity& edge,
+                            const std::vector<Sim3d>& world_from_community) {
   const Sim3d& world_from_first = world_from_community[edge.community1];
   const Sim3d& world_from_second = world_from_community[edge.community2];
-  SimilarityAveragingResult::EdgeReport report;
   std::vector<Eigen::Vector3d> world_points2(edge.points2.size());
   std::vector<double> displacements(edge.points1.size());
   for (size_t k = 0; k < edge.points1.size(); ++k) {
@@ -211,11 +202,10 @@ SimilarityAveragingResult::EdgeReport ComputeEdgeResiduals(
   const double spread = MedianDistanceToMedian(world_points2);
   const double displacement = Median(displacements);
   // A non-finite placement gives an infinite (or NaN) displacement.
-  report.relative_displacement =
-      spread > 0
-          ? displacement / spread
-          : (displacement == 0 ? 0.0 : std::numeric_limits<double>::infinity());
-  return report;
+  return spread > 0
+             ? displacement / spread
+             : (displacement == 0 ? 0.0
+                                  : std::numeric_limits<double>::infinity());
 }
 
 // Whether the images both communities of `edge` registered contradict its
@@ -353,9 +343,9 @@ struct AveragingRounds {
         continue;
       }
       const RelativeSimilarity& edge = relative_similarities[e];
-      result.edges[e] = ComputeEdgeResiduals(edge, result.world_from_community);
-      result.edges[e].kept = true;
-      const double displacement = result.edges[e].relative_displacement;
+      const double displacement =
+          RelativeDisplacement(edge, result.world_from_community);
+      result.edges[e].relative_displacement = displacement;
       // Written so that a non-finite displacement counts as too large.
       if (displacement <= options.max_relative_displacement) {
         continue;
@@ -394,16 +384,10 @@ struct AveragingRounds {
     bool dropped_bridge = false;
     for (size_t e = 0; e < relative_similarities.size(); ++e) {
       const RelativeSimilarity& edge = relative_similarities[e];
-      if (!result.edges[e].kept) {
-        continue;
-      }
       // Full support stands in for the shared images where there are few;
       // contradicting ones were left out before the averaging.
-      if (edge.num_inliers >= kFullSupportNumInliers ||
-          edge.num_agreeing_shared_images >= 2) {
-        continue;
-      }
-      if (IsBridge(e)) {
+      if (result.edges[e].kept && edge.num_inliers < kFullSupportNumInliers &&
+          edge.num_agreeing_shared_images < 2 && IsBridge(e)) {
         result.edges[e].kept = false;
         result.edges[e].unconfirmed = true;
         dropped_bridge = true;

@@ -329,17 +329,15 @@ CommunityPartition DetectCommunities(const WeightedGraph& graph,
         // of its connected pieces is a community of its own.
         const size_t num_pending = pending.size();
         for (const std::vector<int>& part : parts) {
-          const WeightedGraph part_graph = graph.InducedSubgraph(part);
           for (const std::vector<int>& piece :
-               part_graph.ConnectedComponents()) {
-            Pending child;
-            child.depth = current.depth + 1;
-            child.component_size = current.component_size;
-            child.balanced = current.balanced || record.balance;
+               graph.InducedSubgraph(part).ConnectedComponents()) {
+            pending.push_back({{},
+                               current.depth + 1,
+                               current.component_size,
+                               current.balanced || record.balance});
             for (const int i : piece) {
-              child.vertices.push_back(part[i]);
+              pending.back().vertices.push_back(part[i]);
             }
-            pending.push_back(std::move(child));
           }
         }
         // Last pushed, first handled: the first piece first.

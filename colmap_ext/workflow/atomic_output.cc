@@ -93,8 +93,7 @@ int RemoveLeftoversOfEndedWriters(const std::string& folder) {
     }
   }
   for (const auto& leftover : leftovers) {
-    std::error_code ignored;
-    std::filesystem::remove_all(leftover, ignored);
+    std::filesystem::remove_all(leftover, error);
   }
   return static_cast<int>(leftovers.size());
 }

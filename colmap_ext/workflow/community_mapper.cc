@@ -427,9 +427,7 @@ bool CommunityMapperController::RunAllStages() {
   const int num_workers =
       options_.num_workers > 0
           ? options_.num_workers
-          : std::max(
-                1,
-                std::min(static_cast<int>(to_reconstruct.size()), num_threads));
+          : std::clamp(static_cast<int>(to_reconstruct.size()), 1, num_threads);
   const int num_threads_per_worker = std::max(1, num_threads / num_workers);
   LOG(INFO) << StringPrintf(
       "Reconstructing %d communities with %d workers, %d threads each",
