@@ -35,7 +35,8 @@ Scenes (default: small medium):
                            and 6 minutes)
     castle_split,          castle and herzjesu (their cached databases) with
     herzjesu_split         community_mapper splitting them anyway (inlier
-                           weights, communities of 8 or more images): the
+                           weights, communities of 8 or more images, the
+                           balance rule at one half): the
                            merge against survey ground truth; the group
                            `strecha_split` runs both
   South Building with part of its photographs left out at random (the
@@ -235,7 +236,8 @@ SHARED_DATA = os.environ.get(
 # community_mapper's flags that split a small scene without community
 # structure (the *_split scenes).
 SPLIT_FLAGS = ["--CommunityMapper.edge_weights", "num_inliers",
-               "--CommunityMapper.min_community_size", "8"]
+               "--CommunityMapper.min_community_size", "8",
+               "--CommunityMapper.max_community_fraction", "0.5"]
 # Real photographs: folder under SHARED_DATA, feature extraction, and
 # optionally the scene whose cached database it shares and community_mapper
 # flags of its own.

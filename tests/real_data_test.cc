@@ -133,7 +133,8 @@ class RealData : public ::testing::Test {
 };
 
 // The courtyard loop: with exhaustive matching nearly every pair is
-// verified, so only the inlier-weighted view graph shows the structure.
+// verified, so only the inlier-weighted view graph shows the structure, and
+// its peak splits only by the balance rule.
 TEST_F(RealData, CastleP30SplitsAndMergesAsWellAsTheMapper) {
   const std::filesystem::path database = PrepareDatabase("castle-P30");
   const MapperRun community =
@@ -141,7 +142,8 @@ TEST_F(RealData, CastleP30SplitsAndMergesAsWellAsTheMapper) {
                 database,
                 "community_mapper",
                 "--CommunityMapper.edge_weights num_inliers "
-                "--CommunityMapper.min_community_size 8");
+                "--CommunityMapper.min_community_size 8 "
+                "--CommunityMapper.max_community_fraction 0.5");
   const MapperRun mapper = RunMapper("castle-P30", database, "mapper", "");
   Report("castle-P30", community, mapper);
 

@@ -37,10 +37,10 @@ std::vector<CommunityMapperOption> CommunityMapperOptionTable(
        kShapesPlan},
       {"max_community_fraction",
        &detection.max_community_fraction,
-       "a (sub)graph holding more than this fraction of its connected "
-       "component is split at its modularity peak even below the threshold, "
-       "once per branch, so that no community sets the pace alone (1: the "
-       "threshold only)",
+       "below 1, a (sub)graph holding more than this fraction of its "
+       "connected component is split at its modularity peak even below the "
+       "threshold, once per branch, for parallel work on a scene without "
+       "structure (1: the threshold only, as the paper)",
        kShapesPlan},
       {"edge_weights",
        &options->edge_weights,

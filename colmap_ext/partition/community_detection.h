@@ -49,17 +49,14 @@ struct CommunityDetectionOptions {
   // Communities smaller than this are merged into a neighbouring community.
   int min_community_size = 20;
 
-  // A (sub)graph holding more than this fraction of its connected component
-  // is split at its modularity peak even where the peak is below the
-  // threshold or a part is no community (max_part_conductance), if at least
-  // two parts reach min_community_size: the communities are reconstructed in
-  // parallel and the largest sets the pace, and after exhaustive matching
-  // the threshold alone can leave most of a scene in one community; the cut
-  // where the edges are densest gives the merge strong links. The parts of
-  // such a split are not split by this rule again: a part without
-  // structure, cut anyway, can give a community its mapper breaks into
-  // several models. 1: split by the threshold only, as the paper.
-  double max_community_fraction = 0.5;
+  // Below 1, a (sub)graph holding more than this fraction of its connected
+  // component is split at its modularity peak even where the peak is below
+  // the threshold or a part is no community (max_part_conductance), if at
+  // least two parts reach min_community_size, once per branch: more
+  // communities for the parallel work on a scene without structure. Such a
+  // cut leaves each community's mapper less of the scene to resolve its
+  // ambiguities with, so the default is the paper's rule alone.
+  double max_community_fraction = 1.0;
 
   // A split by the threshold is refused where one of its parts (with the
   // parts under min_community_size that would join it) has a conductance

@@ -69,9 +69,11 @@ int NumCommunitiesAmong(const CommunityPartition& partition,
   return static_cast<int>(labels.size());
 }
 
+// With the balance rule at one half.
 CommunityDetectionOptions Options(const int min_community_size) {
   CommunityDetectionOptions options;
   options.min_community_size = min_community_size;
+  options.max_community_fraction = 0.5;
   return options;
 }
 
@@ -133,9 +135,8 @@ TEST(DetectCommunities, DenseRandomGraphStaysOneCommunity) {
     }
   }
 
-  // The paper's rule alone: no structure, no split.
+  // The paper's rule alone (the default): no structure, no split.
   CommunityDetectionOptions options;
-  options.max_community_fraction = 1;
   const CommunityPartition partition =
       DetectCommunities(graph, GreedyModularityPartitioner(), options);
   EXPECT_EQ(partition.NumCommunities(), 1);
@@ -143,11 +144,12 @@ TEST(DetectCommunities, DenseRandomGraphStaysOneCommunity) {
   EXPECT_LT(partition.splits[0].modularity, 0.3);
   EXPECT_FALSE(partition.splits[0].accepted);
 
-  // With the balance rule (the default), a graph holding its whole
-  // component is cut at its modularity peak all the same, into parts of at
-  // least min_community_size, so that two workers share it.
-  const CommunityPartition balanced = DetectCommunities(
-      graph, GreedyModularityPartitioner(), CommunityDetectionOptions());
+  // With the balance rule, a graph holding its whole component is cut at
+  // its modularity peak all the same, into parts of at least
+  // min_community_size, so that two workers share it.
+  options.max_community_fraction = 0.5;
+  const CommunityPartition balanced =
+      DetectCommunities(graph, GreedyModularityPartitioner(), options);
   ASSERT_GE(balanced.splits.size(), 1);
   EXPECT_TRUE(balanced.splits[0].accepted);
   EXPECT_TRUE(balanced.splits[0].balance);
