@@ -19,15 +19,6 @@
 #include <set>
 
 namespace colmap {
-namespace {
-
-// Where the memory stands after a step (for a long run's log).
-void LogMemory(const std::string& step) {
-  LOG(INFO) << "Memory after " << step << ": "
-            << ProcessMemoryToString(ReadProcessMemory());
-}
-
-}  // namespace
 
 bool CommunityMergerOptions::Check() const {
   CHECK_OPTION_GT(min_num_matches, 0);
@@ -72,7 +63,6 @@ void CommunityMerger::EstimateSimilarities() {
   result_.community_of_image = communities_.community_of_image;
 
   ReadCommunityModels();
-  LogMemory("reading the community models");
 
   cross_edges_ = GroupCrossEdges(*view_graph_, communities_.community_of_image);
   result_.num_community_pairs = static_cast<int>(cross_edges_.size());
@@ -139,29 +129,20 @@ void CommunityMerger::AddExtraCommunities(const CommunityRecord& record) {
         owned_image_ids.insert(image_id);
       }
     }
-    if (static_cast<int>(owned_image_ids.size()) <
-        options_.incremental_options.min_model_size) {
-      LOG(INFO) << StringPrintf(
-          "Community %d's model %d of %d holds %d of its own images that no "
-          "larger model of it holds: too few to take part",
-          c,
-          index + 1,
-          record.num_models,
-          static_cast<int>(owned_image_ids.size()));
+    const bool takes_part = static_cast<int>(owned_image_ids.size()) >=
+                            options_.incremental_options.min_model_size;
+    const int extra = static_cast<int>(models_.size());
+    LOG(INFO) << "Community " << c << "'s model " << index + 1 << " of "
+              << record.num_models << " holds " << owned_image_ids.size()
+              << " of its own images that no larger model of it holds: "
+              << (takes_part ? "it takes part as community " +
+                                   std::to_string(extra)
+                             : std::string("too few to take part"));
+    if (!takes_part) {
       continue;
     }
     taken_image_ids.insert(other_reg_image_ids.begin(),
                            other_reg_image_ids.end());
-    const int extra = static_cast<int>(models_.size());
-    LOG(INFO) << StringPrintf(
-        "Community %d's model %d of %d (%d images, %d of its own that no "
-        "larger model of it holds) takes part as community %d",
-        c,
-        index + 1,
-        record.num_models,
-        static_cast<int>(other_model->NumRegImages()),
-        static_cast<int>(owned_image_ids.size()),
-        extra);
     for (const image_t image_id : owned_image_ids) {
       communities_.own_image_ids[c].erase(image_id);
       communities_.community_of_image[image_id] = extra;
@@ -470,7 +451,6 @@ std::shared_ptr<DatabaseCache> CommunityMerger::LoadPartCorrespondences(
         << "image " << model.Image(image_id).Name()
         << " has no correspondences";
   }
-  LogMemory("loading the correspondences");
   return database_cache;
 }
 
@@ -525,7 +505,6 @@ std::shared_ptr<Reconstruction> CommunityMerger::JoinPart(
   LOG(INFO) << StringPrintf("Joined %d images and %d points",
                             static_cast<int>(merged->NumRegImages()),
                             static_cast<int>(merged->NumPoints3D()));
-  LogMemory("joining the models");
   return merged;
 }
 

@@ -1,6 +1,8 @@
 #include "colmap_ext/merge/global_refinement.h"
 
+#include "colmap/estimators/bundle_adjustment.h"
 #include "colmap/scene/reconstruction_manager.h"
+#include "colmap/sfm/observation_manager.h"
 #include "colmap/sfm/incremental_mapper.h"
 #include "colmap/util/logging.h"
 
@@ -29,16 +31,62 @@ GlobalMapperOptions MergedModelRefinementOptions(
   return options;
 }
 
+// GlobalMapper::IterativeRetriangulateAndRefine's steps with one round before
+// the final adjustment (not reused: its rounds complete tracks at 15 px and
+// filter at 4 px, so they rarely stop before the fifth, each round another
+// global adjustment that moves the merged model little).
 bool RefineMergedModel(const GlobalMapperOptions& options,
                        std::shared_ptr<const DatabaseCache> database_cache,
                        std::shared_ptr<Reconstruction> reconstruction) {
-  GlobalMapper mapper(std::move(database_cache));
+  const IncrementalTriangulator::Options triangulation =
+      options.Retriangulation();
+  const BundleAdjustmentOptions ba_options = options.BundleAdjustment();
+  reconstruction->DeleteAllPoints2DAndPoints3D();
+  IncrementalMapper mapper(std::move(database_cache));
   mapper.BeginReconstruction(reconstruction);
-  return mapper.IterativeRetriangulateAndRefine(
-      options.Retriangulation(),
-      options.BundleAdjustment(),
+  for (const image_t image_id : reconstruction->RegImageIds()) {
+    mapper.TriangulateImage(triangulation, image_id);
+  }
+  BundleAdjustmentOptions round_ba_options = ba_options;
+  round_ba_options.print_summary = false;
+  if (round_ba_options.ceres) {
+    round_ba_options.ceres->solver_options.max_num_iterations = 50;
+    round_ba_options.ceres->solver_options.max_linear_solver_iterations = 100;
+  }
+  IncrementalMapper::Options mapper_options;
+  mapper_options.random_seed = triangulation.random_seed;
+  mapper.IterativeGlobalRefinement(/*max_num_refinements=*/1,
+                                   /*max_refinement_change=*/0.0005,
+                                   mapper_options,
+                                   round_ba_options,
+                                   triangulation,
+                                   /*normalize_reconstruction=*/true);
+  mapper.EndReconstruction(/*discard=*/false);
+
+  ObservationManager observation_manager(*reconstruction);
+  observation_manager.FilterPoints3DWithLargeReprojectionError(
       options.max_normalized_reproj_error,
-      options.min_tri_angle_deg);
+      reconstruction->Point3DIds(),
+      ReprojectionErrorType::NORMALIZED);
+  BundleAdjustmentConfig config;
+  for (const image_t image_id : reconstruction->RegImageIds()) {
+    config.AddImage(image_id);
+  }
+  config.FixGauge(BundleAdjustmentGauge::TWO_CAMS_FROM_WORLD);
+  if (reconstruction->NumPoints3D() == 0 ||
+      !CreateDefaultBundleAdjuster(ba_options, config, *reconstruction)
+           ->Solve()
+           ->IsSolutionUsable()) {
+    return false;
+  }
+  reconstruction->Normalize();
+  observation_manager.FilterPoints3DWithLargeReprojectionError(
+      options.max_normalized_reproj_error,
+      reconstruction->Point3DIds(),
+      ReprojectionErrorType::NORMALIZED);
+  observation_manager.FilterPoints3DWithSmallTriangulationAngle(
+      options.min_tri_angle_deg, reconstruction->Point3DIds());
+  return true;
 }
 
 int RegisterRemainingImages(

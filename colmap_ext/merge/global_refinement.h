@@ -8,7 +8,6 @@
 //     min  sum_ij rho(|| pi(P_i, X_j) - x_ij ||^2).
 // The images left are then registered as COLMAP's incremental mapper
 // continues a model (IncrementalPipeline::ReconstructSubModel).
-// docs/design.md, Merge stages 3 and 4, gives the reasons.
 
 #pragma once
 
@@ -21,17 +20,17 @@
 
 namespace colmap {
 
-// The retriangulation and adjustment are COLMAP's GlobalMapper's
-// (IterativeRetriangulateAndRefine) with its defaults; the intrinsics and
-// rigs they refine follow --Mapper.ba_refine_*, and their adjustments stop
-// at `function_tolerance`.
+// GlobalMapper's retriangulation and adjustment defaults; the intrinsics and
+// rigs refined follow --Mapper.ba_refine_*, the adjustments stop at
+// `function_tolerance`.
 GlobalMapperOptions MergedModelRefinementOptions(
     const IncrementalPipelineOptions& mapper_options,
     double function_tolerance);
 
 // Refines `reconstruction` (its registered images, on `database_cache`'s
-// correspondences): every point triangulated anew, then the iterative
-// global refinement. Returns false where an adjustment failed.
+// correspondences): every point triangulated anew, one round of track
+// completion, adjustment and filtering, and a final adjustment. Returns
+// false where the final adjustment failed.
 bool RefineMergedModel(const GlobalMapperOptions& options,
                        std::shared_ptr<const DatabaseCache> database_cache,
                        std::shared_ptr<Reconstruction> reconstruction);
