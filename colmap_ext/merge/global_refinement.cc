@@ -80,12 +80,10 @@ bool RefineMergedModel(const GlobalMapperOptions& options,
     return false;
   }
   reconstruction->Normalize();
-  observation_manager.FilterPoints3DWithLargeReprojectionError(
-      options.max_normalized_reproj_error,
-      reconstruction->Point3DIds(),
-      ReprojectionErrorType::NORMALIZED);
-  observation_manager.FilterPoints3DWithSmallTriangulationAngle(
-      options.min_tri_angle_deg, reconstruction->Point3DIds());
+  // The points as the incremental mapper leaves its own: within its
+  // reprojection error bound and above its triangulation angle.
+  observation_manager.FilterAllPoints3D(mapper_options.filter_max_reproj_error,
+                                        mapper_options.filter_min_tri_angle);
   return true;
 }
 
