@@ -300,6 +300,7 @@ void CommunityMerger::RefinePart(
   THROW_CHECK(RefineMergedModel(
       MergedModelRefinementOptions(options_.incremental_options,
                                    options_.refinement_function_tolerance),
+      options_.incremental_options.Mapper(),
       LoadPartCorrespondences(/*image_names=*/{}, *merged),
       merged))
       << "the bundle adjustment of the merged model failed";

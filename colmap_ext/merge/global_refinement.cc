@@ -14,9 +14,7 @@ GlobalMapperOptions MergedModelRefinementOptions(
   GlobalMapperOptions options;
   options.num_threads = mapper_options.num_threads;
   options.random_seed = mapper_options.random_seed;
-  // GlobalMapper holds rigs all or none: a rig the user holds holds them all.
-  options.refine_sensor_from_rig = mapper_options.ba_refine_sensor_from_rig &&
-                                   mapper_options.constant_rigs.empty();
+  options.refine_sensor_from_rig = mapper_options.ba_refine_sensor_from_rig;
   BundleAdjustmentOptions& ba = options.bundle_adjustment;
   ba.refine_focal_length = mapper_options.ba_refine_focal_length;
   ba.refine_principal_point = mapper_options.ba_refine_principal_point;
@@ -36,6 +34,7 @@ GlobalMapperOptions MergedModelRefinementOptions(
 // filter at 4 px, so they rarely stop before the fifth, each round another
 // global adjustment that moves the merged model little).
 bool RefineMergedModel(const GlobalMapperOptions& options,
+                       const IncrementalMapper::Options& mapper_options,
                        std::shared_ptr<const DatabaseCache> database_cache,
                        std::shared_ptr<Reconstruction> reconstruction) {
   const IncrementalTriangulator::Options triangulation =
@@ -53,8 +52,6 @@ bool RefineMergedModel(const GlobalMapperOptions& options,
     round_ba_options.ceres->solver_options.max_num_iterations = 50;
     round_ba_options.ceres->solver_options.max_linear_solver_iterations = 100;
   }
-  IncrementalMapper::Options mapper_options;
-  mapper_options.random_seed = triangulation.random_seed;
   mapper.IterativeGlobalRefinement(/*max_num_refinements=*/1,
                                    /*max_refinement_change=*/0.0005,
                                    mapper_options,
@@ -71,6 +68,14 @@ bool RefineMergedModel(const GlobalMapperOptions& options,
   BundleAdjustmentConfig config;
   for (const image_t image_id : reconstruction->RegImageIds()) {
     config.AddImage(image_id);
+  }
+  for (const rig_t rig_id : mapper_options.constant_rigs) {
+    for (const auto& [sensor_id, _] : reconstruction->Rig(rig_id).NonRefSensors()) {
+      config.SetConstantSensorFromRigPose(sensor_id);
+    }
+  }
+  for (const camera_t camera_id : mapper_options.constant_cameras) {
+    config.SetConstantCamIntrinsics(camera_id);
   }
   config.FixGauge(BundleAdjustmentGauge::TWO_CAMS_FROM_WORLD);
   if (reconstruction->NumPoints3D() == 0 ||

@@ -15,6 +15,7 @@
 #include "colmap/scene/database_cache.h"
 #include "colmap/scene/reconstruction.h"
 #include "colmap/sfm/global_mapper.h"
+#include "colmap/sfm/incremental_mapper.h"
 
 #include <memory>
 
@@ -29,9 +30,12 @@ GlobalMapperOptions MergedModelRefinementOptions(
 
 // Refines `reconstruction` (its registered images, on `database_cache`'s
 // correspondences): every point triangulated anew, one round of track
-// completion, adjustment and filtering, and a final adjustment. Returns
-// false where the final adjustment failed.
+// completion, adjustment and filtering, and a final adjustment. The round,
+// the cameras and rigs held constant and the last filter follow the user's
+// incremental mapper (`mapper_options`, --Mapper.*). Returns false where the
+// final adjustment failed.
 bool RefineMergedModel(const GlobalMapperOptions& options,
+                       const IncrementalMapper::Options& mapper_options,
                        std::shared_ptr<const DatabaseCache> database_cache,
                        std::shared_ptr<Reconstruction> reconstruction);
 

@@ -94,7 +94,8 @@ TEST(RefineMergedModel, JoinsTheCommunitiesTracks) {
 
   auto refined_truth =
       std::make_shared<Reconstruction>(scene.scene.ground_truth);
-  ASSERT_TRUE(RefineMergedModel(options, scene.database_cache, refined_truth));
+  ASSERT_TRUE(RefineMergedModel(
+      options, scene.mapper_options.Mapper(), scene.database_cache, refined_truth));
   const ModelEvaluation floor =
       EvaluateModel(*refined_truth, scene.scene.ground_truth);
 
@@ -121,7 +122,8 @@ TEST(RefineMergedModel, JoinsTheCommunitiesTracks) {
     frame.SetRigFromWorld(TransformCameraWorld(offset, frame.RigFromWorld()));
   }
 
-  ASSERT_TRUE(RefineMergedModel(options, scene.database_cache, model));
+  ASSERT_TRUE(RefineMergedModel(
+      options, scene.mapper_options.Mapper(), scene.database_cache, model));
   const ModelEvaluation after = EvaluateModel(*model, scene.scene.ground_truth);
   ASSERT_TRUE(floor.aligned);
   ASSERT_TRUE(after.aligned);
@@ -133,6 +135,31 @@ TEST(RefineMergedModel, JoinsTheCommunitiesTracks) {
   EXPECT_LT(after.median_position_error, 1.5 * floor.median_position_error);
   EXPECT_LT(after.median_rotation_error_deg,
             1.5 * floor.median_rotation_error_deg);
+}
+
+// The refinement follows the user's incremental mapper: a camera held
+// constant keeps its intrinsics, and the points left are within the user's
+// reprojection error bound.
+TEST(RefineMergedModel, FollowsTheUsersMapperOptions) {
+  RefinementScene scene;
+  auto model = std::make_shared<Reconstruction>(scene.scene.ground_truth);
+  const camera_t camera_id = model->Cameras().begin()->first;
+  // Intrinsics a little off, as a community's own adjustment leaves them.
+  model->Camera(camera_id).params[0] *= 1.01;
+  const std::vector<double> params = model->Camera(camera_id).params;
+  scene.mapper_options.constant_cameras = {camera_id};
+  scene.mapper_options.mapper.filter_max_reproj_error = 1.0;
+  const GlobalMapperOptions options = MergedModelRefinementOptions(
+      scene.mapper_options, /*function_tolerance=*/1e-6);
+
+  ASSERT_TRUE(RefineMergedModel(
+      options, scene.mapper_options.Mapper(), scene.database_cache, model));
+  EXPECT_EQ(model->Camera(camera_id).params, params);
+  ASSERT_GT(model->NumPoints3D(), 0);
+  model->UpdatePoint3DErrors();
+  for (const auto& [point3D_id, point3D] : model->Points3D()) {
+    EXPECT_LE(point3D.error, 1.0) << point3D_id;
+  }
 }
 
 // An image no community registered is registered as the incremental mapper
