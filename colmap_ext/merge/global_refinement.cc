@@ -2,8 +2,8 @@
 
 #include "colmap/estimators/bundle_adjustment.h"
 #include "colmap/scene/reconstruction_manager.h"
-#include "colmap/sfm/observation_manager.h"
 #include "colmap/sfm/incremental_mapper.h"
+#include "colmap/sfm/observation_manager.h"
 #include "colmap/util/logging.h"
 
 namespace colmap {
@@ -30,9 +30,8 @@ GlobalMapperOptions MergedModelRefinementOptions(
 }
 
 // GlobalMapper::IterativeRetriangulateAndRefine's steps with one round before
-// the final adjustment (not reused: its rounds complete tracks at 15 px and
-// filter at 4 px, so they rarely stop before the fifth, each round another
-// global adjustment that moves the merged model little).
+// the final adjustment (not reused: completing tracks at 15 px and filtering
+// at 4 px, its rounds rarely stop before the fifth, each a global adjustment).
 bool RefineMergedModel(const GlobalMapperOptions& options,
                        const IncrementalMapper::Options& mapper_options,
                        std::shared_ptr<const DatabaseCache> database_cache,
@@ -47,7 +46,6 @@ bool RefineMergedModel(const GlobalMapperOptions& options,
     mapper.TriangulateImage(triangulation, image_id);
   }
   BundleAdjustmentOptions round_ba_options = ba_options;
-  round_ba_options.print_summary = false;
   if (round_ba_options.ceres) {
     round_ba_options.ceres->solver_options.max_num_iterations = 50;
     round_ba_options.ceres->solver_options.max_linear_solver_iterations = 100;
@@ -70,7 +68,8 @@ bool RefineMergedModel(const GlobalMapperOptions& options,
     config.AddImage(image_id);
   }
   for (const rig_t rig_id : mapper_options.constant_rigs) {
-    for (const auto& [sensor_id, _] : reconstruction->Rig(rig_id).NonRefSensors()) {
+    for (const auto& [sensor_id, _] :
+         reconstruction->Rig(rig_id).NonRefSensors()) {
       config.SetConstantSensorFromRigPose(sensor_id);
     }
   }
@@ -85,8 +84,7 @@ bool RefineMergedModel(const GlobalMapperOptions& options,
     return false;
   }
   reconstruction->Normalize();
-  // The points as the incremental mapper leaves its own: within its
-  // reprojection error bound and above its triangulation angle.
+  // The points as the incremental mapper leaves its own (--Mapper.filter_*).
   observation_manager.FilterAllPoints3D(mapper_options.filter_max_reproj_error,
                                         mapper_options.filter_min_tri_angle);
   return true;

@@ -30,10 +30,9 @@ GlobalMapperOptions MergedModelRefinementOptions(
 
 // Refines `reconstruction` (its registered images, on `database_cache`'s
 // correspondences): every point triangulated anew, one round of track
-// completion, adjustment and filtering, and a final adjustment. The round,
-// the cameras and rigs held constant and the last filter follow the user's
-// incremental mapper (`mapper_options`, --Mapper.*). Returns false where the
-// final adjustment failed.
+// completion, adjustment and filtering, and a final adjustment, under the
+// user's filters and constant cameras and rigs (`mapper_options`,
+// --Mapper.*). Returns false where the final adjustment failed.
 bool RefineMergedModel(const GlobalMapperOptions& options,
                        const IncrementalMapper::Options& mapper_options,
                        std::shared_ptr<const DatabaseCache> database_cache,

@@ -65,8 +65,7 @@ bool InSecondCommunity(const RefinementScene& scene, const image_t image_id) {
 }
 
 // The number of points observed by images of both communities.
-int NumPointsAcross(const RefinementScene& scene,
-                    const Reconstruction& model) {
+int NumPointsAcross(const RefinementScene& scene, const Reconstruction& model) {
   int num_across = 0;
   for (const auto& [point3D_id, point3D] : model.Points3D()) {
     std::set<bool> sides;
@@ -94,8 +93,10 @@ TEST(RefineMergedModel, JoinsTheCommunitiesTracks) {
 
   auto refined_truth =
       std::make_shared<Reconstruction>(scene.scene.ground_truth);
-  ASSERT_TRUE(RefineMergedModel(
-      options, scene.mapper_options.Mapper(), scene.database_cache, refined_truth));
+  ASSERT_TRUE(RefineMergedModel(options,
+                                scene.mapper_options.Mapper(),
+                                scene.database_cache,
+                                refined_truth));
   const ModelEvaluation floor =
       EvaluateModel(*refined_truth, scene.scene.ground_truth);
 
