@@ -56,31 +56,17 @@ bool RefineMergedModel(const GlobalMapperOptions& options,
                                    round_ba_options,
                                    triangulation,
                                    /*normalize_reconstruction=*/true);
-  mapper.EndReconstruction(/*discard=*/false);
-
   ObservationManager observation_manager(*reconstruction);
   observation_manager.FilterPoints3DWithLargeReprojectionError(
       options.max_normalized_reproj_error,
       reconstruction->Point3DIds(),
       ReprojectionErrorType::NORMALIZED);
-  BundleAdjustmentConfig config;
-  for (const image_t image_id : reconstruction->RegImageIds()) {
-    config.AddImage(image_id);
-  }
-  for (const rig_t rig_id : mapper_options.constant_rigs) {
-    for (const auto& [sensor_id, _] :
-         reconstruction->Rig(rig_id).NonRefSensors()) {
-      config.SetConstantSensorFromRigPose(sensor_id);
-    }
-  }
-  for (const camera_t camera_id : mapper_options.constant_cameras) {
-    config.SetConstantCamIntrinsics(camera_id);
-  }
-  config.FixGauge(BundleAdjustmentGauge::TWO_CAMS_FROM_WORLD);
-  if (reconstruction->NumPoints3D() == 0 ||
-      !CreateDefaultBundleAdjuster(ba_options, config, *reconstruction)
-           ->Solve()
-           ->IsSolutionUsable()) {
+  // The final adjustment as the incremental mapper's own (its gauge and the
+  // cameras and rigs the user holds).
+  const bool adjusted = reconstruction->NumPoints3D() > 0 &&
+                        mapper.AdjustGlobalBundle(mapper_options, ba_options);
+  mapper.EndReconstruction(/*discard=*/false);
+  if (!adjusted) {
     return false;
   }
   reconstruction->Normalize();
