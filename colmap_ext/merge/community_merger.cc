@@ -1,9 +1,9 @@
 #include "colmap_ext/merge/community_merger.h"
 
-#include "colmap_ext/reconstruction/filtered_database_cache.h"
 #include "colmap_ext/merge/global_refinement.h"
 #include "colmap_ext/merge/model_join.h"
 #include "colmap_ext/merge/part_offers.h"
+#include "colmap_ext/reconstruction/filtered_database_cache.h"
 #include "colmap_ext/util/process_memory.h"
 
 #include "colmap/math/random.h"
@@ -135,9 +135,9 @@ void CommunityMerger::AddExtraCommunities(const CommunityRecord& record) {
     LOG(INFO) << "Community " << c << "'s model " << index + 1 << " of "
               << record.num_models << " holds " << owned_image_ids.size()
               << " of its own images that no larger model of it holds: "
-              << (takes_part ? "it takes part as community " +
-                                   std::to_string(extra)
-                             : std::string("too few to take part"));
+              << (takes_part
+                      ? "it takes part as community " + std::to_string(extra)
+                      : std::string("too few to take part"));
     if (!takes_part) {
       continue;
     }
@@ -204,10 +204,11 @@ void CommunityMerger::Solve() {
   Timer timer;
   const auto end_stage = [&](const std::string& name) {
     result_.stage_seconds.emplace_back(name, timer.ElapsedSeconds());
-    LOG(INFO) << StringPrintf("%s done in %.3f seconds (%s)",
-                              name.c_str(),
-                              timer.ElapsedSeconds(),
-                              ProcessMemoryToString(ReadProcessMemory()).c_str());
+    LOG(INFO) << StringPrintf(
+        "%s done in %.3f seconds (%s)",
+        name.c_str(),
+        timer.ElapsedSeconds(),
+        ProcessMemoryToString(ReadProcessMemory()).c_str());
   };
 
   LOG_HEADING1("Merge 1/4: pairwise similarities between communities");
@@ -244,8 +245,8 @@ void CommunityMerger::JoinAndRefineParts() {
   for (int c = 0; c < num_communities; ++c) {
     has_model[c] = models_[c] != nullptr;
   }
-  const PartOffers offers = PlanPartOffers(
-      averaging_.part_of_community, has_model, cross_edges_);
+  const PartOffers offers =
+      PlanPartOffers(averaging_.part_of_community, has_model, cross_edges_);
   for (int part = 0; part < averaging_.NumParts(); ++part) {
     std::vector<int> part_communities;
     for (int c = 0; c < num_communities; ++c) {
@@ -297,12 +298,13 @@ void CommunityMerger::JoinAndRefineParts() {
 void CommunityMerger::RefinePart(
     const std::shared_ptr<Reconstruction>& merged) const {
   const double initial_error = merged->ComputeMeanReprojectionError();
-  THROW_CHECK(RefineMergedModel(
-      MergedModelRefinementOptions(options_.incremental_options,
-                                   options_.refinement_function_tolerance),
-      options_.incremental_options.Mapper(),
-      LoadPartCorrespondences(/*image_names=*/{}, *merged),
-      merged))
+  IncrementalPipelineOptions refinement_options = options_.incremental_options;
+  refinement_options.ba_global_function_tolerance =
+      options_.refinement_function_tolerance;
+  THROW_CHECK(
+      RefineMergedModel(refinement_options,
+                        LoadPartCorrespondences(/*image_names=*/{}, *merged),
+                        merged))
       << "the bundle adjustment of the merged model failed";
   merged->TearDown();
   merged->UpdatePoint3DErrors();
@@ -368,7 +370,8 @@ void CommunityMerger::RegisterRemainingImagesOfParts() {
         for (const image_t image_id : communities_.own_image_ids[c]) {
           if (registered_image_ids.count(image_id) == 0 &&
               !HasPosedImage(*model, image_id)) {
-            remaining_image_names.insert(communities_.name_of_image.at(image_id));
+            remaining_image_names.insert(
+                communities_.name_of_image.at(image_id));
           }
         }
       }
@@ -378,8 +381,8 @@ void CommunityMerger::RegisterRemainingImagesOfParts() {
       changed = RegisterIntoPart(remaining_image_names, &model) || changed;
     }
     if (changed && options_.incremental_options.extract_colors) {
-      model->ExtractColorsForAllImages(options_.image_path,
-                                       options_.incremental_options.num_threads);
+      model->ExtractColorsForAllImages(
+          options_.image_path, options_.incremental_options.num_threads);
     }
     const std::vector<image_t> reg_image_ids = model->RegImageIds();
     registered_image_ids.insert(reg_image_ids.begin(), reg_image_ids.end());
@@ -398,14 +401,13 @@ void CommunityMerger::RegisterRemainingImagesOfParts() {
 bool CommunityMerger::RegisterIntoPart(
     const std::unordered_set<std::string>& image_names,
     std::shared_ptr<Reconstruction>* model) const {
-  LOG(INFO) << StringPrintf(
-      "Registering %d images into a model of %d images",
-      static_cast<int>(image_names.size()),
-      static_cast<int>((*model)->NumRegImages()));
+  LOG(INFO) << StringPrintf("Registering %d images into a model of %d images",
+                            static_cast<int>(image_names.size()),
+                            static_cast<int>((*model)->NumRegImages()));
   auto registered = std::make_shared<Reconstruction>(**model);
   try {
-    auto mapper_options =
-        std::make_shared<IncrementalPipelineOptions>(options_.incremental_options);
+    auto mapper_options = std::make_shared<IncrementalPipelineOptions>(
+        options_.incremental_options);
     mapper_options->extract_colors = false;
     const int num_new = RegisterRemainingImages(
         mapper_options,

@@ -11,12 +11,12 @@
 // gives the rules' reasons.
 #pragma once
 
-#include "colmap_ext/partition/view_graph.h"
-#include "colmap_ext/workflow/community_workspace.h"
 #include "colmap_ext/merge/community_alignment.h"
 #include "colmap_ext/merge/covisibility_check.h"
 #include "colmap_ext/merge/pairwise_similarity.h"
 #include "colmap_ext/merge/similarity_averaging.h"
+#include "colmap_ext/partition/view_graph.h"
+#include "colmap_ext/workflow/community_workspace.h"
 
 #include "colmap/controllers/incremental_pipeline.h"
 #include "colmap/scene/database_cache.h"

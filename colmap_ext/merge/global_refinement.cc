@@ -9,8 +9,7 @@
 namespace colmap {
 
 GlobalMapperOptions MergedModelRefinementOptions(
-    const IncrementalPipelineOptions& mapper_options,
-    const double function_tolerance) {
+    const IncrementalPipelineOptions& mapper_options) {
   GlobalMapperOptions options;
   options.num_threads = mapper_options.num_threads;
   options.random_seed = mapper_options.random_seed;
@@ -20,7 +19,8 @@ GlobalMapperOptions MergedModelRefinementOptions(
   ba.refine_principal_point = mapper_options.ba_refine_principal_point;
   ba.refine_extra_params = mapper_options.ba_refine_extra_params;
   if (ba.ceres) {
-    ba.ceres->solver_options.function_tolerance = function_tolerance;
+    ba.ceres->solver_options.function_tolerance =
+        mapper_options.ba_global_function_tolerance;
     // On the CPU, as the incremental mapper's adjustments (the global
     // mapper's default asks for the GPU).
     ba.ceres->use_gpu = mapper_options.ba_use_gpu;
@@ -32,10 +32,13 @@ GlobalMapperOptions MergedModelRefinementOptions(
 // GlobalMapper::IterativeRetriangulateAndRefine's steps with one round before
 // the final adjustment (not reused: completing tracks at 15 px and filtering
 // at 4 px, its rounds rarely stop before the fifth, each a global adjustment).
-bool RefineMergedModel(const GlobalMapperOptions& options,
-                       const IncrementalMapper::Options& mapper_options,
+bool RefineMergedModel(const IncrementalPipelineOptions& incremental_options,
                        std::shared_ptr<const DatabaseCache> database_cache,
                        std::shared_ptr<Reconstruction> reconstruction) {
+  const GlobalMapperOptions options =
+      MergedModelRefinementOptions(incremental_options);
+  const IncrementalMapper::Options mapper_options =
+      incremental_options.Mapper();
   const IncrementalTriangulator::Options triangulation =
       options.Retriangulation();
   const BundleAdjustmentOptions ba_options = options.BundleAdjustment();

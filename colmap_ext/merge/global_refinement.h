@@ -22,19 +22,18 @@
 namespace colmap {
 
 // GlobalMapper's retriangulation and adjustment defaults; the intrinsics and
-// rigs refined follow --Mapper.ba_refine_*, the adjustments stop at
-// `function_tolerance`.
+// rigs refined, the threads, the seed and the adjustments' tolerance
+// (ba_global_function_tolerance) follow --Mapper.*.
 GlobalMapperOptions MergedModelRefinementOptions(
-    const IncrementalPipelineOptions& mapper_options,
-    double function_tolerance);
+    const IncrementalPipelineOptions& mapper_options);
 
 // Refines `reconstruction` (its registered images, on `database_cache`'s
 // correspondences): every point triangulated anew, one round of track
 // completion, adjustment and filtering, and a final adjustment, under the
-// user's filters and constant cameras and rigs (`mapper_options`,
-// --Mapper.*). Returns false where the final adjustment failed.
-bool RefineMergedModel(const GlobalMapperOptions& options,
-                       const IncrementalMapper::Options& mapper_options,
+// user's filters, constant cameras and rigs and global adjustment tolerance
+// (`mapper_options`, --Mapper.*). Returns false where the final adjustment
+// failed.
+bool RefineMergedModel(const IncrementalPipelineOptions& mapper_options,
                        std::shared_ptr<const DatabaseCache> database_cache,
                        std::shared_ptr<Reconstruction> reconstruction);
 

@@ -35,6 +35,8 @@ struct RefinementScene {
     database_cache = DatabaseCache::Create(*database, cache_options);
     mapper_options.num_threads = 1;
     mapper_options.random_seed = 1;
+    // As the community mapper sets it.
+    mapper_options.ba_global_function_tolerance = 1e-6;
   }
 
   SyntheticScene scene;
@@ -42,13 +44,14 @@ struct RefinementScene {
   IncrementalPipelineOptions mapper_options;
 };
 
-// The merged model's adjustments stop at the tolerance given, and refine
-// the intrinsics the user refines.
+// The merged model's adjustments stop at the mapper's global tolerance,
+// and refine the intrinsics the user refines.
 TEST(MergedModelRefinementOptions, StopAtTheToleranceAndRefineAsTheUser) {
   IncrementalPipelineOptions mapper_options;
   mapper_options.ba_refine_focal_length = false;
+  mapper_options.ba_global_function_tolerance = 1e-7;
   const GlobalMapperOptions options =
-      MergedModelRefinementOptions(mapper_options, /*function_tolerance=*/1e-7);
+      MergedModelRefinementOptions(mapper_options);
   ASSERT_TRUE(options.bundle_adjustment.ceres);
   EXPECT_EQ(options.bundle_adjustment.ceres->solver_options.function_tolerance,
             1e-7);
@@ -87,16 +90,11 @@ int NumPointsAcross(const RefinementScene& scene, const Reconstruction& model) {
 // are not the refinement's case.)
 TEST(RefineMergedModel, JoinsTheCommunitiesTracks) {
   RefinementScene scene;
-  const GlobalMapperOptions options =
-      MergedModelRefinementOptions(scene.mapper_options,
-                                   /*function_tolerance=*/1e-6);
 
   auto refined_truth =
       std::make_shared<Reconstruction>(scene.scene.ground_truth);
-  ASSERT_TRUE(RefineMergedModel(options,
-                                scene.mapper_options.Mapper(),
-                                scene.database_cache,
-                                refined_truth));
+  ASSERT_TRUE(RefineMergedModel(
+      scene.mapper_options, scene.database_cache, refined_truth));
   const ModelEvaluation floor =
       EvaluateModel(*refined_truth, scene.scene.ground_truth);
 
@@ -123,8 +121,8 @@ TEST(RefineMergedModel, JoinsTheCommunitiesTracks) {
     frame.SetRigFromWorld(TransformCameraWorld(offset, frame.RigFromWorld()));
   }
 
-  ASSERT_TRUE(RefineMergedModel(
-      options, scene.mapper_options.Mapper(), scene.database_cache, model));
+  ASSERT_TRUE(
+      RefineMergedModel(scene.mapper_options, scene.database_cache, model));
   const ModelEvaluation after = EvaluateModel(*model, scene.scene.ground_truth);
   ASSERT_TRUE(floor.aligned);
   ASSERT_TRUE(after.aligned);
@@ -150,11 +148,9 @@ TEST(RefineMergedModel, FollowsTheUsersMapperOptions) {
   const std::vector<double> params = model->Camera(camera_id).params;
   scene.mapper_options.constant_cameras = {camera_id};
   scene.mapper_options.mapper.filter_max_reproj_error = 1.0;
-  const GlobalMapperOptions options = MergedModelRefinementOptions(
-      scene.mapper_options, /*function_tolerance=*/1e-6);
 
-  ASSERT_TRUE(RefineMergedModel(
-      options, scene.mapper_options.Mapper(), scene.database_cache, model));
+  ASSERT_TRUE(
+      RefineMergedModel(scene.mapper_options, scene.database_cache, model));
   EXPECT_EQ(model->Camera(camera_id).params, params);
   ASSERT_GT(model->NumPoints3D(), 0);
   model->UpdatePoint3DErrors();
