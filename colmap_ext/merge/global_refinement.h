@@ -31,9 +31,9 @@ GlobalMapperOptions MergedModelRefinementOptions(
 // correspondences): every point triangulated anew, one round of track
 // completion, adjustment and filtering, and a final adjustment, under the
 // user's filters, constant cameras and rigs and global adjustment tolerance
-// (`mapper_options`, --Mapper.*). Returns false where the final adjustment
-// failed.
-bool RefineMergedModel(const IncrementalPipelineOptions& mapper_options,
+// (`incremental_options`, --Mapper.*). Returns false where the final
+// adjustment failed.
+bool RefineMergedModel(const IncrementalPipelineOptions& incremental_options,
                        std::shared_ptr<const DatabaseCache> database_cache,
                        std::shared_ptr<Reconstruction> reconstruction);
 
