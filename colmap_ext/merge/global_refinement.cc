@@ -59,7 +59,8 @@ bool RefineMergedModel(const IncrementalPipelineOptions& incremental_options,
                                    round_ba_options,
                                    triangulation,
                                    /*normalize_reconstruction=*/true);
-  ObservationManager observation_manager(*reconstruction);
+  // The filters work on the mapper's own bookkeeping of observations.
+  ObservationManager& observation_manager = mapper.ObservationManager();
   observation_manager.FilterPoints3DWithLargeReprojectionError(
       options.max_normalized_reproj_error,
       reconstruction->Point3DIds(),
@@ -68,15 +69,15 @@ bool RefineMergedModel(const IncrementalPipelineOptions& incremental_options,
   // cameras and rigs the user holds).
   const bool adjusted = reconstruction->NumPoints3D() > 0 &&
                         mapper.AdjustGlobalBundle(mapper_options, ba_options);
-  mapper.EndReconstruction(/*discard=*/false);
-  if (!adjusted) {
-    return false;
+  if (adjusted) {
+    reconstruction->Normalize();
+    // The points as the incremental mapper leaves its own (--Mapper.filter_*).
+    observation_manager.FilterAllPoints3D(
+        mapper_options.filter_max_reproj_error,
+        mapper_options.filter_min_tri_angle);
   }
-  reconstruction->Normalize();
-  // The points as the incremental mapper leaves its own (--Mapper.filter_*).
-  observation_manager.FilterAllPoints3D(mapper_options.filter_max_reproj_error,
-                                        mapper_options.filter_min_tri_angle);
-  return true;
+  mapper.EndReconstruction(/*discard=*/false);
+  return adjusted;
 }
 
 int RegisterRemainingImages(
